@@ -1,0 +1,97 @@
+// Caches and reports (outputs.md). Output reads the world and never changes it: the solver hands
+// plain arrays over, and only this module's translation units include OpenVDB's I/O.
+#pragma once
+
+#include <firn/errors.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace firn {
+
+/// Per-particle attributes of one frame, by outputs.md names. All arrays have the same length.
+struct ParticleFrame {
+    std::vector<std::array<float, 3>> P; ///< world-space position, m
+    std::vector<std::array<float, 3>> v; ///< m/s
+    std::vector<std::int32_t> material;
+    std::vector<std::int32_t> failed;
+    std::vector<float> eps_v, eta, p, q;
+};
+
+/// Sparse volume grids of one frame, laid out as VDB leaves: block b covers voxels
+/// origin[b] + [0,8)^3 and its values sit at offset (x&7)<<6 | (y&7)<<3 | (z&7) of the block's
+/// 512-entry slice (x-major, like openvdb::tree::LeafNode). In 2D only z = 0 is filled.
+/// A voxel is active where density > 0.
+struct VolumeFrame {
+    double voxelSize = 0.05;
+    std::vector<std::array<int, 3>> origin;     ///< voxel coordinates, multiples of 8
+    std::vector<float> density;                 ///< kg/m^3, 512 per block
+    std::vector<std::array<float, 3>> velocity; ///< m/s, 512 per block
+    std::vector<float> failed;                  ///< failed mass fraction 0..1, 512 per block
+};
+
+/// Metadata stored on every grid of a frame.
+struct FrameInfo {
+    int frame = 0;
+    double time = 0.0;      ///< simulated time, s
+    double frameRate = 24.0;
+};
+
+/// Writes `dir/particles.NNNN.vdb`: one PointDataGrid "points" with P, v, material, failed,
+/// eps_v, eta, p, q (Blosc). Written to a temporary name in `dir`, then renamed. Throws IoError.
+void writeParticleCache(const std::string& dir, const FrameInfo& info, double voxelSize,
+                        const ParticleFrame& particles);
+
+/// Writes `dir/volume.NNNN.vdb` with the grids named in `grids` (of "density", "velocity",
+/// "failed"), atomically as above. Throws IoError.
+void writeVolumeCache(const std::string& dir, const FrameInfo& info, const VolumeFrame& volume,
+                      const std::vector<std::string>& grids);
+
+/// "particles.0007.vdb" style names.
+std::string frameFileName(const std::string& stem, int frame);
+
+/// Writes `text` to `path` atomically (temporary file in the same folder, then rename).
+void writeFileAtomic(const std::string& path, const std::string& text);
+
+/// Creates a folder and its parents; throws IoError with the path on failure.
+void makeDirectories(const std::string& path);
+
+/// metrics.csv: a header from `columns`, then one row per append, flushed at once so that a
+/// stopped run keeps its rows. Empty optional cells are written as nothing between commas.
+class MetricsWriter {
+public:
+    MetricsWriter(const std::string& path, std::vector<std::string> columns);
+    ~MetricsWriter();
+    MetricsWriter(const MetricsWriter&) = delete;
+    MetricsWriter& operator=(const MetricsWriter&) = delete;
+    /// One value per column, already formatted (use formatNumber); "" for an empty cell.
+    void appendRow(const std::vector<std::string>& cells);
+
+private:
+    std::string mPath;
+    std::vector<std::string> mColumns;
+    void* mFile = nullptr; // FILE*
+};
+
+/// Shortest round-trip text for a double ("0.1", "1e-06", "nan" written as "").
+std::string formatNumber(double value);
+
+/// A flat JSON object writer for summary.json: keys in insertion order.
+class JsonObject {
+public:
+    void set(const std::string& key, double value);   ///< non-finite written as null
+    void set(const std::string& key, long long value);
+    void set(const std::string& key, int value) { set(key, static_cast<long long>(value)); }
+    void set(const std::string& key, const std::string& value);
+    void set(const std::string& key, const char* value) { set(key, std::string(value)); }
+    void setNull(const std::string& key);
+    std::string str() const;
+
+private:
+    std::vector<std::pair<std::string, std::string>> mItems; // key, encoded value
+};
+
+} // namespace firn

@@ -1,0 +1,103 @@
+// Constitutive models as small value types with pure functions, tested at a single point.
+// Everything works in principal space: `eps` holds the d principal Hencky (logarithmic) strains
+// of the elastic deformation gradient (d = dimension; in 2D the third entry is ignored and 0).
+// A return mapping returns the projected strains and the new plastic state; it changes nothing
+// else (style.md: no hidden state mutated in another object).
+#pragma once
+
+#include <firn/scene.h>
+
+#include <Eigen/Core>
+#include <cstdint>
+
+namespace firn {
+
+using Vec3f = Eigen::Vector3f;
+
+/// Lamé parameters from Young's modulus and Poisson's ratio.
+struct Lame {
+    float mu = 0.f;
+    float lambda = 0.f;
+    static Lame fromYoungPoisson(double youngsModulus, double poissonRatio);
+    /// Bulk modulus in d dimensions, K = lambda + 2 mu / d (snow-model.md).
+    float bulkModulus(int dim) const { return lambda + 2.f * mu / float(dim); }
+};
+
+/// Per-particle plastic state. Stored as plain fields in the particle store.
+struct PlasticState {
+    /// Hardening variable. Snow: eps_V^P (total plastic volume strain incl. the initial offset
+    /// that gives p0 = initial_p0). Weak layer: eta while cohesive, then eps_V^P counted from
+    /// the moment of full softening. Granular and elastic: unused.
+    float hardening = 0.f;
+    float epsV = 0.f;      ///< plastic volumetric strain since t = 0 (output `eps_v`)
+    float eta = 0.f;       ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
+    std::uint32_t flags = 0;
+};
+constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once
+constexpr std::uint32_t kFlagCollapsed = 2u; ///< weak layer fully softened (p0 reached 0)
+
+/// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
+struct CamClayParams {
+    float M = 1.f;        ///< critical state slope
+    float beta = 0.3f;    ///< cohesion ratio: tensile strength beta * p0
+    float xi = 5.f;       ///< hardening factor in p0 = K sinh(xi max(-eps, 0))
+    float alpha = 1.f;    ///< weak layer softening factor
+    float Md = 1.2f;      ///< weak layer slope after full softening (eq. 5)
+    float p0Initial = 2.0e4f; ///< Pa
+};
+
+/// A material as the solver uses it: model, density, elasticity and plasticity parameters.
+struct Material {
+    MaterialModel model = MaterialModel::Elastic;
+    float density = 0.f;  ///< kg/m^3
+    Lame lame;
+    CamClayParams camClay;
+    float frictionAngleDeg = 30.f; ///< granular (Drucker-Prager)
+    int dim = 3;
+
+    static Material fromDesc(const MaterialDesc& desc, int dim);
+    /// The plastic state a fresh particle of this material starts in (p0 = initial_p0).
+    PlasticState initialState() const;
+    /// P-wave speed sqrt((lambda + 2 mu) / rho), for the CFL time step.
+    float pWaveSpeed() const;
+};
+
+/// Principal Kirchhoff stresses tau_i = 2 mu eps_i + lambda tr(eps) (Hencky / St. Venant-Kirchhoff
+/// in logarithmic strain). Entries past dim are 0.
+Vec3f kirchhoffPrincipal(const Lame& lame, const Vec3f& eps, int dim);
+
+/// Hencky strain energy density per reference volume, mu |eps|^2 + lambda/2 tr(eps)^2.
+float henckyEnergy(const Lame& lame, const Vec3f& eps, int dim);
+
+/// The paper's invariants from principal Kirchhoff stresses: p = -tr(tau)/d, q = sqrt(3/2 s:s).
+struct StressInvariants {
+    float p = 0.f;
+    float q = 0.f;
+};
+StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim);
+
+/// Cam-Clay yield function y(p, q) = (1 + 2 beta) q^2 + M^2 (p + beta p0)(p - p0), eq. (1).
+float camClayYield(float p, float q, float p0, float M, float beta);
+
+/// Hardening law p0 = K sinh(xi max(-e, 0)), eq. (2) (and eq. (3) with e = eta).
+float camClayP0(float K, float xi, float hardeningVariable);
+
+struct ReturnMapResult {
+    Vec3f eps;            ///< projected principal strains
+    PlasticState state;   ///< updated plastic state
+};
+
+/// Snow slab: non-associative cohesive Cam-Clay return mapping with hardening eq. (2).
+ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
+                                 const PlasticState& state);
+/// Weak layer: softening with the anticrack strain (eqs. 3-4), then frictional with M_d (eq. 5).
+ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
+                                   const PlasticState& state);
+/// Cohesionless Drucker-Prager (Klar et al. 2016, sec. 7.3): tension -> apex, else project to cone.
+ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
+                                       const PlasticState& state);
+
+/// Dispatch on m.model; Elastic returns the input unchanged.
+ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state);
+
+} // namespace firn
