@@ -2,8 +2,7 @@
 
 namespace firn {
 
-std::string formatLoc(const SourceLoc& loc)
-{
+std::string formatLoc(const SourceLoc& loc) {
     std::string out = loc.file.empty() ? std::string("<scene>") : loc.file;
     if (loc.line > 0) {
         out += ":" + std::to_string(loc.line);
@@ -13,8 +12,7 @@ std::string formatLoc(const SourceLoc& loc)
 }
 
 static std::string sceneMessage(const SourceLoc& loc, const std::string& key,
-                                const std::string& message)
-{
+                                const std::string& message) {
     std::string out = formatLoc(loc) + ": error: ";
     if (!key.empty()) out += key + ": ";
     return out + message;
@@ -23,8 +21,6 @@ static std::string sceneMessage(const SourceLoc& loc, const std::string& key,
 SceneError::SceneError(const SourceLoc& loc, const std::string& key, const std::string& message)
     : FirnError(sceneMessage(loc, key, message))
     , mLoc(loc)
-    , mKey(key)
-{
-}
+    , mKey(key) {}
 
 } // namespace firn

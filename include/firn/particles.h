@@ -1,0 +1,71 @@
+// The particle store: structure-of-arrays state, bucketed by grid leaf.
+//
+// Particles are kept sorted by the 8^d block ("leaf", as in an OpenVDB tree) that holds their
+// quadratic B-spline base node, floor(x/dx - 1/2). Each leaf's particles are contiguous, the
+// same layout a PointDataGrid leaf gives its attribute arrays, so that P2G and G2P run per leaf
+// with TBB and write only leaf-owned memory. Frames are exported to a PointDataGrid by io.
+#pragma once
+
+#include <firn/material.h>
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace firn {
+
+using Mat3f = Eigen::Matrix3f;
+/// Block (leaf) coordinate: node index >> 3 on each axis; z is 0 in 2D.
+using LeafKey = std::array<int, 3>;
+constexpr int kLeafLog2 = 3;
+constexpr int kLeafDim = 1 << kLeafLog2;
+
+/// Symmetric 3x3 matrix (Kirchhoff stress): xx, yy, zz, xy, xz, yz.
+struct Sym3f {
+    float xx = 0.f, yy = 0.f, zz = 0.f, xy = 0.f, xz = 0.f, yz = 0.f;
+    Vec3f times(const Vec3f& a) const
+    {
+        return {xx * a[0] + xy * a[1] + xz * a[2], xy * a[0] + yy * a[1] + yz * a[2],
+                xz * a[0] + yz * a[1] + zz * a[2]};
+    }
+};
+
+struct ParticleSet {
+    int dim = 3;
+    float dx = 0.05f;
+
+    std::vector<Vec3f> x;                 ///< position, m
+    std::vector<Vec3f> v;                 ///< velocity, m/s
+    std::vector<Mat3f> C;                 ///< APIC affine velocity gradient, 1/s
+    std::vector<Mat3f> F;                 ///< elastic deformation gradient
+    std::vector<Sym3f> tau;               ///< Kirchhoff stress after the last plasticity pass, Pa
+    std::vector<float> mass;              ///< kg (2D: per metre of depth)
+    std::vector<float> volume0;           ///< initial volume, m^3 (2D: m^2)
+    std::vector<std::int32_t> material;   ///< index into the world's materials
+    std::vector<PlasticState> plastic;
+
+    std::vector<LeafKey> leaves;          ///< sorted, unique, non-empty
+    std::vector<std::uint32_t> leafStart; ///< leaves.size() + 1 offsets into the arrays
+
+    std::size_t size() const { return x.size(); }
+    std::size_t leafCount() const { return leaves.size(); }
+
+    /// Appends one particle at rest with F = I (leaves are rebuilt by bucketByLeaf).
+    void add(const Vec3f& position, const Vec3f& velocity, float particleMass, float volume,
+             int materialIndex, const PlasticState& state);
+    /// Removes the particles for which keep[i] is false (keeps order).
+    void compact(const std::vector<char>& keep);
+    /// Sorts particles into leaves (stable, deterministic for any thread count). Cheap when
+    /// few particles change leaf, which is the common case at CFL-limited steps.
+    void bucketByLeaf();
+
+private:
+    std::vector<std::uint32_t> mOrder;     // scratch: gather order of the last bucketing
+    std::vector<unsigned char> mScratch;   // scratch: one attribute during the gather
+};
+
+/// Block of the base node of a particle at x (quadratic B-spline stencil base).
+LeafKey leafOf(const Vec3f& x, float invDx, int dim);
+
+} // namespace firn

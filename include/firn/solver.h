@@ -1,0 +1,59 @@
+// The explicit MPM step (Stomakhin et al. 2013; Jiang et al. 2016) with symplectic Euler, and
+// the world it advances. scene -> buildWorld -> step loop -> output (design.md).
+#pragma once
+
+#include <firn/collider.h>
+#include <firn/grid.h>
+#include <firn/material.h>
+#include <firn/particles.h>
+#include <firn/scene.h>
+#include <firn/transfer.h>
+
+#include <memory>
+#include <vector>
+
+namespace firn {
+
+struct World {
+    int dim = 3;
+    float dx = 0.05f;
+    Transfer transfer = Transfer::Apic;
+    float flipBlend = 0.95f;
+    float cfl = 0.4f;
+    float maxDt = 1e-3f;
+    Vec3f gravity = Vec3f(0.f, -9.81f, 0.f);
+
+    std::vector<Material> materials;
+    std::vector<Collider> colliders;
+    ParticleSet particles;
+    Grid grid;
+    TransferScratch scratch;
+
+    double time = 0.0;        ///< s
+    long long steps = 0;
+    float maxSpeed = 0.f;     ///< largest particle speed after the last step, m/s
+    float maxWaveSpeed = 0.f; ///< largest P-wave speed over the materials in use, m/s
+};
+
+/// Builds materials, colliders and seeds particles from the scene's bodies (deterministic from
+/// simulation.seed). Throws SceneError for what the scene asks and cannot be built.
+std::unique_ptr<World> buildWorld(const SceneDesc& scene);
+
+/// dt = min(max_dt, cfl dx / (max speed + elastic wave speed)).
+double stableTimeStep(const World& world);
+
+/// Wall time per stage of the last steps, seconds (accumulated).
+struct StepTimings {
+    double p2g = 0, gridUpdate = 0, g2p = 0, plasticity = 0, sort = 0;
+};
+
+/// One explicit step of length dt. Times each stage into `timings` when given.
+void step(World& world, double dt, StepTimings* timings = nullptr);
+
+/// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions.
+void updateGridVelocity(World& world, float dt);
+
+/// Return mapping and Kirchhoff stress of every particle from its trial F.
+void applyPlasticity(World& world);
+
+} // namespace firn

@@ -1,0 +1,48 @@
+// Particle <-> grid transfers with quadratic B-splines: APIC (Jiang et al. 2015), PIC, and the
+// PIC/FLIP blend. Stress enters P2G through the MLS-MPM form of the force (Hu et al. 2018):
+// the nodal impulse -dt V0 tau grad w uses grad w = w D^-1 (x_i - x_p), which is exact for the
+// affine part of quadratic B-splines and lets momentum and force share one affine matrix.
+//
+// Parallel over particle leaves with TBB and without atomics or locks: each particle leaf
+// scatters into its own padded 10^d block, then each grid leaf sums the (up to 2^d) padded
+// blocks that overlap it, in a fixed order. Sums therefore have the same order whatever the
+// thread count: results are bitwise reproducible.
+#pragma once
+
+#include <firn/grid.h>
+#include <firn/io.h>
+#include <firn/particles.h>
+#include <firn/scene.h>
+
+#include <vector>
+
+namespace firn {
+
+struct TransferParams {
+    int dim = 3;
+    float dx = 0.05f;
+    float dt = 1e-3f;
+    Transfer transfer = Transfer::Apic;
+    float flipBlend = 0.95f;
+};
+
+/// Reusable per-leaf padded blocks of the scatter phase.
+struct TransferScratch {
+    std::vector<float> padded;
+};
+
+/// P2G: grid mass, momentum plus stress impulse (APIC, PIC) in Grid::velocity; for FLIP the
+/// stress impulse goes to Grid::aux (3 channels) so that the transferred velocity stays apart.
+void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
+                     TransferScratch& scratch);
+
+/// G2P: particle velocity (APIC/PIC/FLIP), affine matrix C (the velocity gradient, also used
+/// for F), position x += dt v_pic and trial F = (I + dt C) F. Returns the largest speed.
+float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params);
+
+/// Rasterises mass, velocity and failed mass fraction of the particles onto the grid's leaves
+/// with the same weights as P2G, for the volume cache. Grid must be rebuilt for `particles`.
+VolumeFrame rasterizeVolumes(const ParticleSet& particles, const Grid& grid,
+                             TransferScratch& scratch);
+
+} // namespace firn

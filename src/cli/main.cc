@@ -1,0 +1,159 @@
+// firn: run, check scenes. Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable,
+// 3 I/O error, 130 interrupted (SIGINT/SIGTERM).
+#include <firn/errors.h>
+#include <firn/run.h>
+#include <firn/scene.h>
+
+#include <cstdio>
+#include <cstring>
+#include <exception>
+#include <string>
+#include <vector>
+
+namespace {
+
+const char* kUsage = R"(firn - snow avalanche simulation with the material point method
+
+usage:
+  firn run SCENE.toml [--threads N] [--out DIR] [--set key=value ...] [--quiet]
+  firn check SCENE.toml [--set key=value ...]
+  firn --help | firn COMMAND --help | firn --version
+
+commands:
+  run     simulate the scene; write VDB caches, metrics.csv and summary.json
+  check   parse and validate the scene, print what it would simulate, run nothing
+
+Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O error,
+130 interrupted. See README.md for the scene reference.
+)";
+
+const char* kRunHelp = R"(usage: firn run SCENE.toml [options]
+
+Simulates the scene and writes into its output folder (output.directory, default out/<name>):
+frames/particles.NNNN.vdb, frames/volume.NNNN.vdb, metrics.csv, summary.json, scene.toml.
+
+options:
+  --threads N        worker threads (default: all cores); results are bitwise identical
+                     for any N
+  --out DIR          output folder, overrides output.directory
+  --set key=value    override a scene value, e.g. --set grid.dx=0.025
+                     --set simulation.end_time=0.5 --set material.slab.youngs_modulus=2e6
+                     (repeatable; the value is TOML: strings need quotes or are bare words)
+  --quiet            no progress line on stderr
+  -h, --help         this text
+)";
+
+const char* kCheckHelp = R"(usage: firn check SCENE.toml [--set key=value ...]
+
+Parses and validates the scene without running it and prints the particles per material, the
+grid spacing, the time step and the estimated number of steps. Exit code 1 on any scene error.
+)";
+
+struct UsageError {
+    std::string message;
+};
+
+struct Command {
+    std::string name, scene;
+    firn::RunOptions run;
+    std::vector<std::string> overrides;
+    bool help = false;
+};
+
+std::string needValue(int& i, int argc, char** argv)
+{
+    if (i + 1 >= argc) throw UsageError{std::string(argv[i]) + " needs a value"};
+    return argv[++i];
+}
+
+int parseThreads(const std::string& text)
+{
+    try {
+        std::size_t used = 0;
+        const int n = std::stoi(text, &used);
+        if (used == text.size() && n >= 1) return n;
+    } catch (const std::exception&) {
+    }
+    throw UsageError{"--threads must be a positive integer, got '" + text + "'"};
+}
+
+Command parseCommand(int argc, char** argv)
+{
+    Command c;
+    c.name = argv[1];
+    for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a == "-h" || a == "--help") c.help = true;
+        else if (a == "--set") c.overrides.push_back(needValue(i, argc, argv));
+        else if (a == "--threads" && c.name == "run") c.run.threads = parseThreads(needValue(i, argc, argv));
+        else if (a == "--out" && c.name == "run") c.run.outDir = needValue(i, argc, argv);
+        else if (a == "--quiet" && c.name == "run") c.run.quiet = true;
+        else if (!a.empty() && a[0] == '-') throw UsageError{"unknown option '" + a + "' for firn " + c.name};
+        else if (c.scene.empty()) c.scene = a;
+        else throw UsageError{"one scene file only, got '" + c.scene + "' and '" + a + "'"};
+    }
+    if (!c.help && c.scene.empty()) throw UsageError{"firn " + c.name + " needs a scene file"};
+    return c;
+}
+
+int runCommand(const Command& c)
+{
+    const firn::SceneDesc scene = firn::loadScene(c.scene, c.overrides);
+    if (c.name == "check") {
+        std::fputs(firn::describeScene(scene).c_str(), stdout);
+        return 0;
+    }
+    const firn::RunResult r = firn::runScene(scene, c.run);
+    if (r.status == "unstable") {
+        std::fprintf(stderr, "firn: %s\n", r.message.c_str());
+        return 2;
+    }
+    if (r.status == "interrupted") {
+        std::fprintf(stderr, "firn: %s; %d frames kept in %s\n", r.message.c_str(), r.frames,
+                     r.outDir.c_str());
+        return 130;
+    }
+    if (!c.run.quiet)
+        std::fprintf(stderr, "firn: %d frames, %lld steps, %zu particles in %.1f s -> %s\n",
+                     r.frames, r.steps, r.particles, r.wallSeconds, r.outDir.c_str());
+    return 0;
+}
+
+} // namespace
+
+int main(int argc, char** argv)
+{
+    if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
+        std::fputs(kUsage, argc < 2 ? stderr : stdout);
+        return argc < 2 ? 1 : 0;
+    }
+    if (!std::strcmp(argv[1], "--version")) {
+        std::printf("firn %s\n", FIRN_VERSION);
+        return 0;
+    }
+    try {
+        const std::string name = argv[1];
+        if (name != "run" && name != "check") throw UsageError{"unknown command '" + name + "'"};
+        const Command c = parseCommand(argc, argv);
+        if (c.help) {
+            std::fputs(c.name == "run" ? kRunHelp : kCheckHelp, stdout);
+            return 0;
+        }
+        return runCommand(c);
+    } catch (const UsageError& e) {
+        std::fprintf(stderr, "firn: error: %s\n(see firn --help)\n", e.message.c_str());
+        return 1;
+    } catch (const firn::SceneError& e) {
+        std::fprintf(stderr, "%s\n", e.what());
+        return 1;
+    } catch (const firn::IoError& e) {
+        std::fprintf(stderr, "firn: I/O error: %s\n", e.what());
+        return 3;
+    } catch (const firn::SimulationError& e) {
+        std::fprintf(stderr, "firn: simulation failed: %s\n", e.what());
+        return 2;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "firn: internal error: %s\n", e.what());
+        return 4;
+    }
+}

@@ -1,0 +1,335 @@
+#include <firn/diagnostics.h>
+#include <firn/io.h>
+#include <firn/run.h>
+#include <firn/solver.h>
+
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <sstream>
+
+namespace firn {
+
+namespace {
+
+volatile std::sig_atomic_t gStopSignal = 0;
+extern "C" void onStopSignal(int sig) { gStopSignal = sig; }
+
+/// Installs SIGINT/SIGTERM handlers for the duration of a run: the loop then stops after the
+/// current step, so no frame file is left half written and the summary says "interrupted".
+class SignalGuard {
+public:
+    SignalGuard()
+    {
+        gStopSignal = 0;
+        mOldInt = std::signal(SIGINT, onStopSignal);
+        mOldTerm = std::signal(SIGTERM, onStopSignal);
+    }
+    ~SignalGuard()
+    {
+        std::signal(SIGINT, mOldInt);
+        std::signal(SIGTERM, mOldTerm);
+    }
+
+private:
+    void (*mOldInt)(int);
+    void (*mOldTerm)(int);
+};
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0)
+{
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+std::size_t peakRssBytes()
+{
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return std::size_t(usage.ru_maxrss) * 1024;
+}
+
+/// One updating line on a terminal, plain lines otherwise, nothing when quiet.
+class Progress {
+public:
+    Progress(bool quiet, int frames)
+        : mQuiet(quiet)
+        , mTty(isatty(fileno(stderr)))
+        , mFrames(frames)
+    {
+    }
+    void frame(int k, double time, std::size_t particles, long long steps, double wall)
+    {
+        if (mQuiet) return;
+        const double stepsPerSecond = wall > 0 ? steps / wall : 0.0;
+        const double eta = k > 0 ? wall * (mFrames - k) / k : 0.0;
+        std::fprintf(stderr, "%sframe %d/%d  t=%.4g s  %zu particles  %.1f steps/s  ETA %.0f s%s",
+                     mTty ? "\r\033[K" : "", k, mFrames, time, particles, stepsPerSecond, eta,
+                     mTty ? "" : "\n");
+        std::fflush(stderr);
+    }
+    void done()
+    {
+        if (!mQuiet && mTty) std::fprintf(stderr, "\n");
+    }
+
+private:
+    bool mQuiet, mTty;
+    int mFrames;
+};
+
+/// Crack tip and speed from the extent of eta > 0 along x (outputs.md: crack_tip_x, crack_speed).
+class CrackTracker {
+public:
+    void update(const FrameDiagnostics& d, double time)
+    {
+        mSpeed = std::nan("");
+        if (std::isnan(d.crackMinX)) return;
+        if (std::isnan(mMinX)) {
+            mTip = d.crackMaxX;
+        } else {
+            const double up = mMinX - d.crackMinX, down = d.crackMaxX - mMaxX;
+            const double growth = std::max(0.0, std::max(up, down));
+            mTip = up > down ? d.crackMinX : d.crackMaxX;
+            mSpeed = growth / (time - mTime);
+            mMaxSpeed = std::max(mMaxSpeed, mSpeed);
+            if (growth > 0) mGrowth += growth, mGrowthTime += time - mTime;
+        }
+        mMinX = d.crackMinX, mMaxX = d.crackMaxX, mTime = time;
+    }
+    double tip() const { return mTip; }
+    double speed() const { return mSpeed; }
+    double maxSpeed() const { return mMaxSpeed; }
+    double meanSpeed() const { return mGrowthTime > 0 ? mGrowth / mGrowthTime : 0.0; }
+    double distance() const { return std::isnan(mMinX) ? 0.0 : mMaxX - mMinX; }
+
+private:
+    double mMinX = std::nan(""), mMaxX = std::nan(""), mTime = 0, mTip = std::nan("");
+    double mSpeed = std::nan(""), mMaxSpeed = 0, mGrowth = 0, mGrowthTime = 0;
+};
+
+/// Energy can only leave the system (friction, plasticity, numerical damping). A gain larger
+/// than everything the scene holds (initial kinetic + elastic energy, plus the potential energy
+/// released so far, plus one cell of fall) means the integration has blown up.
+class StabilityWatch {
+public:
+    explicit StabilityWatch(const FrameDiagnostics& d0, const World& w)
+        : mE0(d0.totalEnergy())
+        , mBudget(d0.kineticEnergy + d0.elasticEnergy + d0.mass * w.gravity.norm() * w.dx)
+        , mGravity0(d0.gravitationalEnergy)
+    {
+    }
+    /// Empty when fine, else a sentence saying what went wrong and where.
+    std::string check(const FrameDiagnostics& d, const World& w) const
+    {
+        std::ostringstream why;
+        const auto& p = d.worstPosition;
+        if (!d.finite) {
+            why << "non-finite particle state";
+        } else {
+            const double released = std::max(0.0, mGravity0 - d.gravitationalEnergy);
+            const double gain = d.totalEnergy() - mE0;
+            if (gain <= mBudget + released) return "";
+            why << "energy grew by " << gain << " J without a source (budget "
+                << mBudget + released << " J)";
+        }
+        why << " at t = " << w.time << " s, step " << w.steps << ", near x = (" << p[0] << ", "
+            << p[1] << ", " << p[2] << ") m";
+        return why.str();
+    }
+    double drift(const FrameDiagnostics& d) const { return d.totalEnergy() - mE0; }
+
+private:
+    double mE0, mBudget, mGravity0;
+};
+
+const std::vector<std::string> kMetricColumns = {
+    "frame", "time", "steps", "dt", "particles", "active_voxels", "mass", "com_x", "com_y",
+    "com_z", "momentum_x", "momentum_y", "momentum_z", "kinetic_energy", "max_speed", "front_x",
+    "crack_tip_x", "crack_speed", "failed_fraction", "wall_seconds", "elastic_energy",
+    "gravitational_energy", "energy_drift", "crack_tip_min_x", "crack_tip_max_x"};
+
+struct RunState {
+    RunState(const SceneDesc& sc, World& w, const std::string& outDir)
+        : scene(sc)
+        , world(w)
+        , framesDir(outDir + "/frames")
+        , metrics(outDir + "/metrics.csv", kMetricColumns)
+    {
+    }
+    const SceneDesc& scene;
+    World& world;
+    std::string framesDir;
+    MetricsWriter metrics;
+    CrackTracker crack;
+    double lastDt = 0;
+    double maxSpeed = 0;
+    FrameDiagnostics first, last;
+    Clock::time_point start = Clock::now();
+};
+
+std::string cell(double v) { return formatNumber(v); }
+
+/// Writes frame k: particle and volume caches and the metrics row.
+FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch)
+{
+    World& w = s.world;
+    const FrameDiagnostics d = computeDiagnostics(w);
+    const FrameInfo info{k, w.time, s.scene.simulation.frameRate};
+    const OutputDesc& out = s.scene.output;
+    w.grid.rebuild(w.particles, 0);
+    const VolumeFrame volume = rasterizeVolumes(w.particles, w.grid, w.scratch);
+    std::size_t activeVoxels = 0;
+    for (float rho : volume.density) activeVoxels += rho > 0.f;
+    if (out.particles) writeParticleCache(s.framesDir, info, w.dx, exportParticles(w));
+    if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
+    s.crack.update(d, w.time);
+    s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
+    const double nan = std::nan("");
+    s.metrics.appendRow({std::to_string(k), cell(w.time), std::to_string(w.steps), cell(s.lastDt),
+                         std::to_string(d.particles), std::to_string(activeVoxels), cell(d.mass),
+                         cell(d.centreOfMass[0]), cell(d.centreOfMass[1]), cell(d.centreOfMass[2]),
+                         cell(d.momentum[0]), cell(d.momentum[1]), cell(d.momentum[2]),
+                         cell(d.kineticEnergy), cell(d.maxSpeed), cell(d.frontX),
+                         cell(d.hasWeakLayer ? s.crack.tip() : nan),
+                         cell(d.hasWeakLayer ? s.crack.speed() : nan), cell(d.failedFraction),
+                         cell(secondsSince(s.start)), cell(d.elasticEnergy),
+                         cell(d.gravitationalEnergy), cell(watch ? watch->drift(d) : 0.0),
+                         cell(d.crackMinX), cell(d.crackMaxX)});
+    return d;
+}
+
+/// Highest point of the release to the farthest deposit point, from the horizontal.
+double alphaAngleDeg(const FrameDiagnostics& first, const World& w)
+{
+    const ParticleSet& ps = w.particles;
+    if (ps.size() == 0) return std::nan("");
+    std::size_t far = 0;
+    for (std::size_t i = 1; i < ps.size(); ++i)
+        if (ps.x[i][0] > ps.x[far][0]) far = i;
+    const double run = ps.x[far][0] - first.topX;
+    const double drop = first.topY - ps.x[far][1];
+    if (run <= 0) return std::nan("");
+    return std::atan2(drop, run) * 180.0 / M_PI;
+}
+
+void writeSummary(const RunState& s, const RunResult& r, int threads)
+{
+    const World& w = s.world;
+    const std::size_t rss = peakRssBytes();
+    const double wall = secondsSince(s.start);
+    JsonObject j;
+    j.set("scene", s.scene.path);
+    j.set("dimension", w.dim);
+    j.set("particles", static_cast<long long>(w.particles.size()));
+    j.set("steps", w.steps);
+    j.set("frames", r.frames);
+    j.set("end_time", w.time);
+    j.set("wall_seconds", wall);
+    j.set("threads", threads);
+    j.set("particle_steps_per_second", wall > 0 ? double(w.particles.size()) * w.steps / wall : 0.0);
+    j.set("peak_rss_bytes", static_cast<long long>(rss));
+    j.set("bytes_per_particle", w.particles.size() ? double(rss) / w.particles.size() : 0.0);
+    j.set("mass_initial", s.first.mass);
+    j.set("mass_final", s.last.mass);
+    j.set("max_speed", s.maxSpeed);
+    j.set("max_crack_speed", s.crack.maxSpeed());
+    j.set("mean_crack_speed", s.crack.meanSpeed());
+    j.set("crack_propagation_distance", s.crack.distance());
+    double runout = -std::numeric_limits<double>::infinity();
+    for (const Vec3f& x : w.particles.x) runout = std::max(runout, double(x[0]));
+    j.set("runout_x", runout);
+    j.set("alpha_angle_deg", alphaAngleDeg(s.first, w));
+    j.set("status", r.status);
+    if (!r.message.empty()) j.set("message", r.message);
+    writeFileAtomic(r.outDir + "/summary.json", j.str());
+}
+
+} // namespace
+
+RunResult runScene(const SceneDesc& scene, const RunOptions& options)
+{
+    const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    RunResult result;
+    result.outDir = options.outDir.empty() ? scene.output.directory : options.outDir;
+    makeDirectories(result.outDir + "/frames");
+    writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
+
+    std::unique_ptr<World> world = buildWorld(scene);
+    RunState s(scene, *world, result.outDir);
+    const int frames = std::max(1, int(std::lround(scene.simulation.endTime *
+                                                   scene.simulation.frameRate)));
+    Progress progress(options.quiet, frames);
+    SignalGuard signals;
+
+    s.first = s.last = writeFrame(s, 0, nullptr);
+    const StabilityWatch watch(s.first, *world);
+    result.frames = 1;
+    for (int k = 1; k <= frames && result.status == "ok"; ++k) {
+        const double frameEnd = k / scene.simulation.frameRate;
+        while (world->time < frameEnd - 1e-12 && !gStopSignal) {
+            // The last step of a frame is shortened to land on the frame time exactly.
+            s.lastDt = std::min(stableTimeStep(*world), frameEnd - world->time);
+            step(*world, s.lastDt);
+            if (!std::isfinite(world->maxSpeed)) break;
+        }
+        if (gStopSignal) {
+            result.status = "interrupted";
+            result.message = std::string("stopped by signal ") + std::to_string(gStopSignal) +
+                             " at t = " + std::to_string(world->time) + " s";
+            break;
+        }
+        const FrameDiagnostics d = computeDiagnostics(*world);
+        const std::string why = watch.check(d, *world);
+        if (!why.empty()) {
+            result.status = "unstable";
+            result.message = "unstable: " + why + "; last good frame is " +
+                             std::to_string(result.frames - 1);
+            break;
+        }
+        s.last = writeFrame(s, k, &watch);
+        ++result.frames;
+        progress.frame(k, world->time, world->particles.size(), world->steps,
+                       secondsSince(s.start));
+    }
+    progress.done();
+    result.steps = world->steps;
+    result.particles = world->particles.size();
+    result.wallSeconds = secondsSince(s.start);
+    writeSummary(s, result, threads);
+    return result;
+}
+
+std::string describeScene(const SceneDesc& scene)
+{
+    std::unique_ptr<World> world = buildWorld(scene);
+    std::ostringstream out;
+    out << "scene " << scene.path << ": \"" << scene.simulation.name << "\", "
+        << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
+        << scene.grid.particlesPerCell << " particles per cell, transfer "
+        << toString(scene.grid.transfer) << "\n";
+    std::vector<std::size_t> perMaterial(world->materials.size(), 0);
+    for (std::int32_t m : world->particles.material) ++perMaterial[m];
+    for (std::size_t m = 0; m < perMaterial.size(); ++m)
+        out << "  material \"" << scene.materials[m].name << "\" ("
+            << toString(scene.materials[m].model) << "): " << perMaterial[m] << " particles\n";
+    const double dt = stableTimeStep(*world);
+    out << "  " << world->particles.size() << " particles in " << world->particles.leafCount()
+        << " leaves; P-wave speed " << world->maxWaveSpeed << " m/s; dt <= " << dt << " s\n"
+        << "  end time " << scene.simulation.endTime << " s: about "
+        << std::llround(scene.simulation.endTime / dt) << " steps (at rest; more as it speeds up), "
+        << std::lround(scene.simulation.endTime * scene.simulation.frameRate) + 1 << " frames\n"
+        << "  output: " << scene.output.directory << "\n";
+    return out.str();
+}
+
+} // namespace firn

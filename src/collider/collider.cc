@@ -1,0 +1,97 @@
+#include <firn/collider.h>
+
+#include <cmath>
+#include <limits>
+
+namespace firn {
+
+Collider Collider::fromDesc(const TerrainDesc& desc, int dim)
+{
+    if (desc.shape == TerrainShape::Heightfield)
+        throw SceneError(desc.loc, "terrain: shape",
+                         "\"heightfield\" terrain needs the DEM reader, which this build lacks; "
+                         "use \"plane\" or \"profile\"");
+    Collider c;
+    c.mShape = desc.shape;
+    c.mBoundary = desc.boundary;
+    c.mFriction = static_cast<float>(desc.friction);
+    c.mDim = dim;
+    c.mPoint = Vec3f(float(desc.point[0]), float(desc.point[1]), float(desc.point[2]));
+    c.mNormal = Vec3f(float(desc.normal[0]), float(desc.normal[1]), float(desc.normal[2]));
+    if (dim == 2) c.mPoint[2] = 0.f, c.mNormal[2] = 0.f;
+    c.mNormal.normalize();
+    for (const auto& p : desc.points) c.mProfile.push_back({float(p[0]), float(p[1])});
+    return c;
+}
+
+// The polyline is extended past its ends along its first and last segments, so that the
+// ground never ends under a scene.
+void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const
+{
+    const std::size_t ns = mProfile.size() - 1;
+    float best = std::numeric_limits<float>::max();
+    for (std::size_t s = 0; s < ns; ++s) {
+        const float ax = mProfile[s][0], ay = mProfile[s][1];
+        const float ex = mProfile[s + 1][0] - ax, ey = mProfile[s + 1][1] - ay;
+        float t = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey);
+        if (s > 0) t = std::max(t, 0.f);
+        if (s + 1 < ns) t = std::min(t, 1.f);
+        const float qx = ax + t * ex, qy = ay + t * ey;
+        const float d2 = (px - qx) * (px - qx) + (py - qy) * (py - qy);
+        if (d2 < best) best = d2, cx = qx, cy = qy;
+    }
+    sign = py >= heightAt(px, 0.f) ? 1.f : -1.f;
+}
+
+float Collider::heightAt(float xCoord, float zCoord) const
+{
+    if (mShape == TerrainShape::Plane) {
+        // n . (x - p) = 0 solved for y; a vertical plane has no height: report -inf.
+        if (std::abs(mNormal[1]) < 1e-6f) return -std::numeric_limits<float>::infinity();
+        const float dz = mDim == 3 ? mNormal[2] * (zCoord - mPoint[2]) : 0.f;
+        return mPoint[1] - (mNormal[0] * (xCoord - mPoint[0]) + dz) / mNormal[1];
+    }
+    std::size_t s = 0;
+    while (s + 2 < mProfile.size() && xCoord > mProfile[s + 1][0]) ++s;
+    const auto& a = mProfile[s];
+    const auto& b = mProfile[s + 1];
+    return a[1] + (b[1] - a[1]) * (xCoord - a[0]) / (b[0] - a[0]);
+}
+
+float Collider::signedDistance(const Vec3f& x) const
+{
+    if (mShape == TerrainShape::Plane) return mNormal.dot(x - mPoint);
+    float cx = 0.f, cy = 0.f, sign = 1.f;
+    nearestOnProfile(x[0], x[1], cx, cy, sign);
+    return sign * std::sqrt((x[0] - cx) * (x[0] - cx) + (x[1] - cy) * (x[1] - cy));
+}
+
+Vec3f Collider::normal(const Vec3f& x) const
+{
+    if (mShape == TerrainShape::Plane) return mNormal;
+    float cx = 0.f, cy = 0.f, sign = 1.f;
+    nearestOnProfile(x[0], x[1], cx, cy, sign);
+    Vec3f n(sign * (x[0] - cx), sign * (x[1] - cy), 0.f);
+    const float len = n.norm();
+    if (len > 1e-6f) return n / len;
+    // On the surface: the normal of the local segment, pointing up.
+    std::size_t s = 0;
+    while (s + 2 < mProfile.size() && x[0] > mProfile[s + 1][0]) ++s;
+    Vec3f seg(mProfile[s + 1][0] - mProfile[s][0], mProfile[s + 1][1] - mProfile[s][1], 0.f);
+    return Vec3f(-seg[1], seg[0], 0.f).normalized();
+}
+
+Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const
+{
+    if (mBoundary == Boundary::Sticky) return Vec3f::Zero();
+    const float vn = v.dot(n);
+    if (vn >= 0.f) return v; // separating
+    const Vec3f vt = v - vn * n;
+    if (mBoundary == Boundary::Slip) return vt;
+    // Coulomb: the normal impulse -vn buys at most mu |vn| of tangential impulse.
+    const float vtNorm = vt.norm();
+    if (vtNorm <= -mFriction * vn) return Vec3f::Zero();
+    return vt * (1.f + mFriction * vn / vtNorm);
+}
+
+} // namespace firn

@@ -1,0 +1,131 @@
+#include <firn/diagnostics.h>
+#include <firn/svd.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace firn {
+
+namespace {
+
+constexpr double kMovingSpeed = 0.1; // m/s: outputs.md front_x threshold
+
+/// p = -tr(tau)/d and q = sqrt(3/2 s:s), s = tau + p I, over the d x d block (Gaume et al. 2019).
+StressInvariants invariantsOf(const Sym3f& t, int dim)
+{
+    const double p = -(dim == 3 ? t.xx + t.yy + t.zz : t.xx + t.yy) / dim;
+    const double sxx = t.xx + p, syy = t.yy + p, szz = dim == 3 ? t.zz + p : 0.0;
+    double ss = sxx * sxx + syy * syy + szz * szz + 2.0 * t.xy * t.xy;
+    if (dim == 3) ss += 2.0 * (t.xz * t.xz + t.yz * t.yz);
+    return {float(p), float(std::sqrt(1.5 * ss))};
+}
+
+void merge(FrameDiagnostics& into, const FrameDiagnostics& d)
+{
+    into.particles += d.particles;
+    into.mass += d.mass;
+    into.centreOfMass += d.centreOfMass; // mass-weighted sum until the end
+    into.momentum += d.momentum;
+    into.kineticEnergy += d.kineticEnergy;
+    into.elasticEnergy += d.elasticEnergy;
+    into.gravitationalEnergy += d.gravitationalEnergy;
+    into.failedFraction += d.failedFraction; // failed mass until the end
+    if (d.maxSpeed > into.maxSpeed || !d.finite) into.worstPosition = d.worstPosition;
+    into.maxSpeed = std::max(into.maxSpeed, d.maxSpeed);
+    if (d.topY > into.topY) into.topY = d.topY, into.topX = d.topX;
+    into.finite = into.finite && d.finite;
+    into.hasWeakLayer = into.hasWeakLayer || d.hasWeakLayer;
+    auto fmaxNan = [](double a, double b) { return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b); };
+    auto fminNan = [](double a, double b) { return std::isnan(a) ? b : std::isnan(b) ? a : std::min(a, b); };
+    into.frontX = fmaxNan(into.frontX, d.frontX);
+    into.crackMinX = fminNan(into.crackMinX, d.crackMinX);
+    into.crackMaxX = fmaxNan(into.crackMaxX, d.crackMaxX);
+}
+
+FrameDiagnostics leafDiagnostics(const World& world, std::size_t l)
+{
+    const ParticleSet& ps = world.particles;
+    FrameDiagnostics d;
+    d.topY = -std::numeric_limits<double>::infinity();
+    for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+        const Material& mat = world.materials[ps.material[i]];
+        const double m = ps.mass[i];
+        const Eigen::Vector3d x = ps.x[i].cast<double>(), v = ps.v[i].cast<double>();
+        const double speed = v.norm();
+        ++d.particles;
+        d.mass += m;
+        d.centreOfMass += m * x;
+        d.momentum += m * v;
+        d.kineticEnergy += 0.5 * m * v.squaredNorm();
+        d.gravitationalEnergy -= m * world.gravity.cast<double>().dot(x);
+        const LeftStretch ls = leftStretch(ps.F[i], world.dim);
+        Vec3f eps = Vec3f::Zero();
+        for (int a = 0; a < world.dim; ++a) eps[a] = std::log(ls.sigma[a]);
+        d.elasticEnergy += ps.volume0[i] * henckyEnergy(mat.lame, eps, world.dim);
+        if (!std::isfinite(speed) || !x.allFinite()) {
+            d.finite = false;
+            d.worstPosition = x;
+        } else if (speed >= d.maxSpeed) {
+            d.maxSpeed = speed;
+            d.worstPosition = x;
+        }
+        if (x[1] > d.topY) d.topY = x[1], d.topX = x[0];
+        if (speed > kMovingSpeed) d.frontX = std::isnan(d.frontX) ? x[0] : std::max(d.frontX, x[0]);
+        if (ps.plastic[i].flags & kFlagFailed) d.failedFraction += m;
+        if (mat.model == MaterialModel::WeakLayer) {
+            d.hasWeakLayer = true;
+            if (ps.plastic[i].eta > 0.f) {
+                d.crackMinX = std::isnan(d.crackMinX) ? x[0] : std::min(d.crackMinX, x[0]);
+                d.crackMaxX = std::isnan(d.crackMaxX) ? x[0] : std::max(d.crackMaxX, x[0]);
+            }
+        }
+    }
+    return d;
+}
+
+} // namespace
+
+FrameDiagnostics computeDiagnostics(const World& world)
+{
+    const ParticleSet& ps = world.particles;
+    std::vector<FrameDiagnostics> perLeaf(ps.leafCount());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) perLeaf[l] = leafDiagnostics(world, l);
+    });
+    FrameDiagnostics total;
+    total.topY = -std::numeric_limits<double>::infinity();
+    for (const FrameDiagnostics& d : perLeaf) merge(total, d);
+    if (total.mass > 0) {
+        total.centreOfMass /= total.mass;
+        total.failedFraction /= total.mass;
+    }
+    return total;
+}
+
+ParticleFrame exportParticles(const World& world)
+{
+    const ParticleSet& ps = world.particles;
+    const std::size_t n = ps.size();
+    ParticleFrame f;
+    f.P.resize(n), f.v.resize(n), f.material.resize(n), f.failed.resize(n);
+    f.eps_v.resize(n), f.eta.resize(n), f.p.resize(n), f.q.resize(n);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            f.P[i] = {ps.x[i][0], ps.x[i][1], ps.x[i][2]};
+            f.v[i] = {ps.v[i][0], ps.v[i][1], ps.v[i][2]};
+            f.material[i] = ps.material[i];
+            f.failed[i] = (ps.plastic[i].flags & kFlagFailed) ? 1 : 0;
+            f.eps_v[i] = ps.plastic[i].epsV;
+            f.eta[i] = ps.plastic[i].eta;
+            const StressInvariants pq = invariantsOf(ps.tau[i], world.dim);
+            f.p[i] = pq.p;
+            f.q[i] = pq.q;
+        }
+    });
+    return f;
+}
+
+} // namespace firn

@@ -1,0 +1,144 @@
+#include <firn/grid.h>
+
+#include <openvdb/openvdb.h>
+
+#include <algorithm>
+
+namespace firn {
+
+namespace {
+using MassLeaf = openvdb::FloatTree::LeafNodeType;
+using VelocityLeaf = openvdb::Vec3fTree::LeafNodeType;
+
+openvdb::Coord leafOrigin(const LeafKey& k)
+{
+    return openvdb::Coord(k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim);
+}
+
+int offsetCount(int dim) { return 1 << dim; }
+
+LeafKey shifted(const LeafKey& k, int o, int sign)
+{
+    return {k[0] + sign * (o & 1), k[1] + sign * ((o >> 1) & 1), k[2] + sign * ((o >> 2) & 1)};
+}
+
+std::int32_t findKey(const std::vector<LeafKey>& keys, const LeafKey& k)
+{
+    auto it = std::lower_bound(keys.begin(), keys.end(), k);
+    return (it != keys.end() && *it == k) ? static_cast<std::int32_t>(it - keys.begin()) : -1;
+}
+} // namespace
+
+struct Grid::Impl {
+    openvdb::FloatTree massTree{0.f};
+    openvdb::Vec3fTree velocityTree{openvdb::Vec3f(0.f)};
+    std::vector<LeafKey> keys;
+    std::vector<MassLeaf*> massLeaves;
+    std::vector<VelocityLeaf*> velocityLeaves;
+    std::vector<float> aux;
+    int auxChannels = 0;
+    std::vector<NeighbourIndices> blocksOfParticleLeaf;
+    std::vector<NeighbourIndices> particleLeavesOfBlock;
+
+    // Keeps the leaves that stay (their buffers are rewritten by every P2G), frees the rest
+    // and allocates the new ones: no per-step reallocation of a steady topology.
+    template <typename TreeT>
+    static void retopologise(TreeT& tree, std::vector<typename TreeT::LeafNodeType*>& leaves,
+                             const std::vector<LeafKey>& newKeys)
+    {
+        using LeafT = typename TreeT::LeafNodeType;
+        leaves.resize(newKeys.size());
+        for (std::size_t b = 0; b < newKeys.size(); ++b) {
+            const openvdb::Coord origin = leafOrigin(newKeys[b]);
+            LeafT* leaf = tree.template stealNode<LeafT>(origin, tree.background(), false);
+            leaves[b] = leaf ? leaf : new LeafT(origin, tree.background(), true);
+        }
+        tree.clear();
+        for (LeafT* leaf : leaves) tree.addLeaf(leaf);
+    }
+};
+
+Grid::Grid()
+    : mImpl(new Impl)
+{
+}
+Grid::~Grid() = default;
+
+void Grid::rebuild(const ParticleSet& particles, int auxChannels)
+{
+    Impl& g = *mImpl;
+    const int no = offsetCount(particles.dim);
+    std::vector<LeafKey> keys;
+    keys.reserve(particles.leafCount() * no);
+    for (const LeafKey& k : particles.leaves)
+        for (int o = 0; o < no; ++o) keys.push_back(shifted(k, o, +1));
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+
+    if (keys != g.keys) {
+        g.retopologise(g.massTree, g.massLeaves, keys);
+        g.retopologise(g.velocityTree, g.velocityLeaves, keys);
+        g.keys.swap(keys);
+    }
+    g.auxChannels = auxChannels;
+    g.aux.resize(std::size_t(auxChannels) * kLeafNodes * g.keys.size());
+
+    g.blocksOfParticleLeaf.resize(particles.leafCount());
+    for (std::size_t l = 0; l < particles.leafCount(); ++l) {
+        g.blocksOfParticleLeaf[l].fill(-1);
+        for (int o = 0; o < no; ++o)
+            g.blocksOfParticleLeaf[l][o] = findKey(g.keys, shifted(particles.leaves[l], o, +1));
+    }
+    g.particleLeavesOfBlock.resize(g.keys.size());
+    for (std::size_t b = 0; b < g.keys.size(); ++b) {
+        g.particleLeavesOfBlock[b].fill(-1);
+        for (int o = 0; o < no; ++o)
+            g.particleLeavesOfBlock[b][o] = findKey(particles.leaves, shifted(g.keys[b], o, -1));
+    }
+}
+
+std::size_t Grid::blockCount() const { return mImpl->keys.size(); }
+const LeafKey& Grid::blockKey(std::size_t b) const { return mImpl->keys[b]; }
+float* Grid::mass(std::size_t b) { return mImpl->massLeaves[b]->buffer().data(); }
+const float* Grid::mass(std::size_t b) const { return mImpl->massLeaves[b]->buffer().data(); }
+float* Grid::velocity(std::size_t b)
+{
+    return reinterpret_cast<float*>(mImpl->velocityLeaves[b]->buffer().data());
+}
+const float* Grid::velocity(std::size_t b) const
+{
+    return reinterpret_cast<const float*>(mImpl->velocityLeaves[b]->buffer().data());
+}
+float* Grid::aux(std::size_t b)
+{
+    return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
+}
+const float* Grid::aux(std::size_t b) const
+{
+    return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
+}
+int Grid::auxChannels() const { return mImpl->auxChannels; }
+
+const std::vector<NeighbourIndices>& Grid::blocksOfParticleLeaf() const
+{
+    return mImpl->blocksOfParticleLeaf;
+}
+const std::vector<NeighbourIndices>& Grid::particleLeavesOfBlock() const
+{
+    return mImpl->particleLeavesOfBlock;
+}
+
+std::size_t Grid::activeNodeCount(int dim) const
+{
+    std::size_t n = 0;
+    const int nz = dim == 3 ? kLeafDim : 1;
+    for (std::size_t b = 0; b < blockCount(); ++b) {
+        const float* m = mass(b);
+        for (int i = 0; i < kLeafDim; ++i)
+            for (int j = 0; j < kLeafDim; ++j)
+                for (int k = 0; k < nz; ++k) n += m[(i << 6) | (j << 3) | k] > 0.f;
+    }
+    return n;
+}
+
+} // namespace firn

@@ -1,0 +1,195 @@
+// Return mappings in principal Hencky-strain space (snow-model.md; Gaume et al. 2019 sec. 2.2).
+//
+// With tau = 2 mu eps + lambda tr(eps) 1 over the d principal entries,
+//   p = -K tr(eps)                       (K = lambda + 2 mu / d)
+//   q = sqrt(3/2) 2 mu |dev(eps)|
+// so a target (p, q) maps back to eps = -p / (K d) 1 + dev(eps) q_target / q_trial, and the
+// plastic volume change is the change of tr(eps) = log det Fe. Hardening is explicit, as in the
+// authors' MPM codes: the trial state is projected onto the surface of the state at the start
+// of the step, then the hardening variable is updated with the plastic volume change.
+#include <firn/material.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace firn {
+
+namespace {
+
+constexpr float kPi = 3.14159265358979323846f;
+
+/// The Cam-Clay surface a projection uses: p0 (Pa), slope M and cohesion ratio beta.
+struct CamClaySurface {
+    float p0;
+    float M;
+    float beta;
+};
+
+/// Result of a projection in strain space, before any hardening is applied.
+struct Projection {
+    Vec3f eps;
+    float dVolume = 0.f; ///< plastic volume change tr(eps_trial) - tr(eps_new), eps_V^P rate
+    bool yielded = false;
+};
+
+/// 1 on the d principal entries in use, 0 past them. Fixed-size masked arithmetic instead of
+/// head(dim): it vectorises without GCC's -Warray-bounds false positives on dynamic blocks.
+Vec3f activeMask(int dim) { return dim == 2 ? Vec3f(1.f, 1.f, 0.f) : Vec3f::Ones(); }
+
+/// eps = tr/d 1 + dev over the d active entries.
+struct StrainSplit {
+    float tr;
+    Vec3f dev; ///< 0 past dim
+    float devNorm;
+};
+
+StrainSplit splitStrain(const Vec3f& eps, int dim)
+{
+    const Vec3f mask = activeMask(dim);
+    StrainSplit out;
+    out.tr = eps.dot(mask);
+    out.dev = (eps - (out.tr / float(dim)) * mask).cwiseProduct(mask);
+    out.devNorm = out.dev.norm();
+    return out;
+}
+
+/// eps with its d active entries replaced by those of `active` (entries past dim are kept).
+Vec3f replaceActive(const Vec3f& eps, const Vec3f& active, int dim)
+{
+    const Vec3f mask = activeMask(dim);
+    return eps.cwiseProduct(Vec3f::Ones() - mask) + active.cwiseProduct(mask);
+}
+
+/// The non-associative Cam-Clay projection of snow-model.md (Wolper et al. 2019, Gaume et al.
+/// 2018a): beyond a tip -> that tip; otherwise scale q onto the surface at constant p.
+Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, const Vec3f& eps)
+{
+    const float K = lame.bulkModulus(dim);
+    const StrainSplit split = splitStrain(eps, dim);
+    const float tr = split.tr;
+    const float p = -K * tr;
+    const float q = std::sqrt(1.5f) * 2.f * lame.mu * split.devNorm;
+
+    Projection out;
+    out.eps = eps;
+    // eq. (1), Gaume et al. 2019; `!(y > 0)` also leaves a NaN state alone for the solver's
+    // stability check to find.
+    if (!(camClayYield(p, q, s.p0, s.M, s.beta) > 0.f)) return out;
+    out.yielded = true;
+
+    const float tensileTip = -s.beta * s.p0;
+    if (p > s.p0 || p < tensileTip) {
+        // Beyond a tip: the stress goes to the tip, (p0, 0) or (-beta p0, 0). With p0 = 0 (and
+        // beta = 0 after weak-layer collapse) both tips are the origin: zero stress.
+        const float pTip = p > s.p0 ? s.p0 : tensileTip;
+        out.eps = replaceActive(eps, Vec3f::Constant(-pTip / (K * float(dim))), dim);
+        out.dVolume = tr + pTip / K; // tr(eps_trial) - tr(eps_tip), since tr(eps_tip) = -pTip/K
+        return out;
+    }
+    // Between the tips: keep p (so no plastic volume change) and bring q down to the surface,
+    // q_y = M sqrt((p + beta p0)(p0 - p) / (1 + 2 beta)), the root of eq. (1) at this p.
+    // max(., 0) absorbs round-off right at a tip; q > 0 here unless round-off put a state with
+    // q = 0 an ulp outside, and then the deviator is simply zero.
+    const float qYieldSq = std::max((p + s.beta * s.p0) * (s.p0 - p), 0.f) / (1.f + 2.f * s.beta);
+    const float scale = q > 0.f ? s.M * std::sqrt(qYieldSq) / q : 0.f;
+    out.eps = replaceActive(eps, split.dev * scale + Vec3f::Constant(tr / float(dim)), dim);
+    return out;
+}
+
+/// Applies a snow-like (eq. 2) hardening step: eps_V^P += dVolume.
+PlasticState hardenVolumetric(PlasticState state, const Projection& pr)
+{
+    if (!pr.yielded) return state;
+    state.flags |= kFlagFailed;
+    state.hardening += pr.dVolume; // eps_V^P, eq. (2): compaction (dVolume < 0) hardens
+    state.epsV += pr.dVolume;
+    return state;
+}
+
+/// Weak layer while cohesive: the anticrack strain eta grows with alpha |d eps_V^P|, eq. (4),
+/// and p0 follows eq. (3). Once eta reaches 0 (p0 = 0, time t_c) the layer has collapsed: the
+/// hardening variable restarts as eps_V^P = 0 for eq. (2) and the output eta freezes at -eta0.
+PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alpha)
+{
+    if (!pr.yielded) return state;
+    state.flags |= kFlagFailed;
+    state.epsV += pr.dVolume;
+    // eq. (4), Gaume et al. 2019: d eta = alpha |d eps_V^P| (shear at constant p adds nothing)
+    const float eta = std::min(state.hardening + alpha * std::abs(pr.dVolume), 0.f);
+    state.eta += eta - state.hardening; // eta - eta0, capped at -eta0 when p0 hits 0
+    state.hardening = eta;
+    if (eta >= 0.f) {
+        state.flags |= kFlagCollapsed;
+        state.hardening = 0.f; // eps_V^P counted from t_c, eq. (4) for t > t_c
+    }
+    return state;
+}
+
+} // namespace
+
+ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
+                                 const PlasticState& state)
+{
+    const CamClayParams& cc = m.camClay;
+    const float K = m.lame.bulkModulus(m.dim);
+    const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.M, cc.beta}; // eq. (2)
+    const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
+    return {pr.eps, hardenVolumetric(state, pr)};
+}
+
+ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
+                                   const PlasticState& state)
+{
+    const CamClayParams& cc = m.camClay;
+    const float K = m.lame.bulkModulus(m.dim);
+    if (state.flags & kFlagCollapsed) {
+        // After t_c: no cohesion, slope M_d, hardening by eq. (2) on eps_V^P: eq. (5).
+        const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.Md, 0.f};
+        const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
+        return {pr.eps, hardenVolumetric(state, pr)};
+    }
+    const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.M, cc.beta}; // eq. (3)
+    const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
+    return {pr.eps, softenAnticrack(state, pr, cc.alpha)};
+}
+
+ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
+                                       const PlasticState& state)
+{
+    // Klar et al. 2016, sec. 7.3: cohesionless Drucker-Prager with a constant friction angle.
+    const int dim = m.dim;
+    const float mu = m.lame.mu, lambda = m.lame.lambda;
+    const float sinPhi = std::sin(m.frictionAngleDeg * kPi / 180.f);
+    const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
+
+    const StrainSplit split = splitStrain(epsTrial, dim);
+    const float tr = split.tr, devNorm = split.devNorm;
+
+    ReturnMapResult out{epsTrial, state};
+    if (tr >= 0.f) {
+        // Expansion: a cohesionless material carries no tension, the stress goes to the apex.
+        if (tr == 0.f && devNorm == 0.f) return out; // already stress-free
+        out.eps = replaceActive(epsTrial, Vec3f::Zero(), dim);
+        out.state.epsV += tr; // the whole volume change is plastic
+    } else {
+        const float dGamma = devNorm + (float(dim) * lambda + 2.f * mu) / (2.f * mu) * tr * alpha;
+        if (!(dGamma > 0.f)) return out; // inside the cone
+        // Radial return in the deviatoric plane: tr(eps) and so p are kept (no dilatancy).
+        out.eps -= (dGamma / devNorm) * split.dev; // devNorm > dGamma > 0 here; 0 past dim
+    }
+    out.state.flags |= kFlagFailed;
+    return out;
+}
+
+ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state)
+{
+    switch (m.model) {
+    case MaterialModel::Snow: return returnMapCamClay(m, epsTrial, state);
+    case MaterialModel::WeakLayer: return returnMapWeakLayer(m, epsTrial, state);
+    case MaterialModel::Granular: return returnMapDruckerPrager(m, epsTrial, state);
+    case MaterialModel::Elastic: break;
+    }
+    return {epsTrial, state};
+}
+
+} // namespace firn

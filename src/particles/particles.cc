@@ -1,0 +1,224 @@
+#include <firn/particles.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <numeric>
+
+namespace firn {
+
+namespace {
+
+constexpr std::uint8_t kFar = 255; // moved more than one leaf in one step
+constexpr int kDirections = 27;
+constexpr std::uint8_t kStay = 13; // direction code of (0, 0, 0)
+
+bool keyLess(const LeafKey& a, const LeafKey& b) { return a < b; }
+
+std::uint8_t directionCode(const LeafKey& from, const LeafKey& to)
+{
+    int code = 0;
+    for (int a = 0; a < 3; ++a) {
+        const int d = to[a] - from[a];
+        if (d < -1 || d > 1) return kFar;
+        code = code * 3 + (d + 1);
+    }
+    return static_cast<std::uint8_t>(code);
+}
+
+LeafKey offsetKey(const LeafKey& k, int code)
+{
+    return {k[0] + code / 9 - 1, k[1] + (code / 3) % 3 - 1, k[2] + code % 3 - 1};
+}
+
+std::size_t findLeaf(const std::vector<LeafKey>& leaves, const LeafKey& k)
+{
+    return static_cast<std::size_t>(std::lower_bound(leaves.begin(), leaves.end(), k, keyLess) -
+                                    leaves.begin());
+}
+
+} // namespace
+
+LeafKey leafOf(const Vec3f& x, float invDx, int dim)
+{
+    LeafKey key{0, 0, 0};
+    for (int a = 0; a < dim; ++a) {
+        const int base = static_cast<int>(std::floor(x[a] * invDx - 0.5f));
+        key[a] = base >> kLeafLog2; // arithmetic shift: floor division for negative nodes too
+    }
+    return key;
+}
+
+void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float particleMass,
+                      float volume, int materialIndex, const PlasticState& state)
+{
+    x.push_back(position);
+    v.push_back(velocity);
+    C.push_back(Mat3f::Zero());
+    F.push_back(Mat3f::Identity());
+    tau.push_back(Sym3f{});
+    mass.push_back(particleMass);
+    volume0.push_back(volume);
+    material.push_back(materialIndex);
+    plastic.push_back(state);
+}
+
+void ParticleSet::compact(const std::vector<char>& keep)
+{
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < size(); ++i) {
+        if (!keep[i]) continue;
+        x[n] = x[i], v[n] = v[i], C[n] = C[i], F[n] = F[i], tau[n] = tau[i];
+        mass[n] = mass[i], volume0[n] = volume0[i], material[n] = material[i];
+        plastic[n] = plastic[i];
+        ++n;
+    }
+    x.resize(n), v.resize(n), C.resize(n), F.resize(n), tau.resize(n);
+    mass.resize(n), volume0.resize(n), material.resize(n), plastic.resize(n);
+    leaves.clear();
+    leafStart.clear();
+}
+
+namespace {
+
+// Gathers a[k] = a[order[k]] through a scratch buffer, in parallel.
+template <typename T>
+void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
+                   std::vector<unsigned char>& scratch)
+{
+    const std::size_t n = a.size();
+    if (scratch.size() < n * sizeof(T)) scratch.resize(n * sizeof(T));
+    T* tmp = reinterpret_cast<T*>(scratch.data());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) tmp[k] = a[order[k]];
+    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+        std::memcpy(static_cast<void*>(a.data() + r.begin()), tmp + r.begin(),
+                    (r.end() - r.begin()) * sizeof(T));
+    });
+}
+
+// Initial bucketing of unsorted particles: a stable sort by leaf key.
+void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t>& order,
+                     std::vector<LeafKey>& leaves, std::vector<std::uint32_t>& leafStart)
+{
+    order.resize(keys.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
+    leaves.clear();
+    leafStart.clear();
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        if (leaves.empty() || leaves.back() != keys[order[k]]) {
+            leaves.push_back(keys[order[k]]);
+            leafStart.push_back(static_cast<std::uint32_t>(k));
+        }
+    }
+    leafStart.push_back(static_cast<std::uint32_t>(order.size()));
+}
+
+} // namespace
+
+void ParticleSet::bucketByLeaf()
+{
+    const float invDx = 1.f / dx;
+    const std::size_t n = size();
+    if (leaves.empty()) {
+        std::vector<LeafKey> keys(n);
+        for (std::size_t i = 0; i < n; ++i) keys[i] = leafOf(x[i], invDx, dim);
+        sortFromScratch(keys, mOrder, leaves, leafStart);
+    } else {
+        // A counting sort: particles move at most one leaf per step at CFL-limited steps, so
+        // each leaf sends particles to its 27 neighbours (direction codes); rare far movers are
+        // placed serially. The new order is by old leaf, then old order: deterministic.
+        const std::size_t nl = leafCount();
+        std::vector<std::uint8_t> code(n);
+        std::vector<std::array<std::uint32_t, kDirections>> count(nl);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
+            for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                count[l].fill(0);
+                for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
+                    code[i] = directionCode(leaves[l], leafOf(x[i], invDx, dim));
+                    if (code[i] != kFar) ++count[l][code[i]];
+                }
+            }
+        });
+        bool moved = false;
+        std::vector<LeafKey> newLeaves;
+        std::vector<std::pair<LeafKey, std::uint32_t>> far; // (key, particle)
+        for (std::size_t l = 0; l < nl; ++l) {
+            for (int c = 0; c < kDirections; ++c) {
+                if (count[l][c] == 0) continue;
+                newLeaves.push_back(offsetKey(leaves[l], c));
+                moved |= (c != kStay);
+            }
+            for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
+                if (code[i] != kFar) continue;
+                far.push_back({leafOf(x[i], invDx, dim), i});
+                newLeaves.push_back(far.back().first);
+                moved = true;
+            }
+        }
+        if (!moved) return;
+        std::sort(newLeaves.begin(), newLeaves.end(), keyLess);
+        newLeaves.erase(std::unique(newLeaves.begin(), newLeaves.end()), newLeaves.end());
+
+        // Destination leaf of each (old leaf, direction), and the start offsets.
+        std::vector<std::array<std::uint32_t, kDirections>> dest(nl);
+        std::vector<std::uint32_t> newCount(newLeaves.size(), 0);
+        for (std::size_t l = 0; l < nl; ++l) {
+            for (int c = 0; c < kDirections; ++c) {
+                if (count[l][c] == 0) continue;
+                dest[l][c] = static_cast<std::uint32_t>(
+                    findLeaf(newLeaves, offsetKey(leaves[l], c)));
+                newCount[dest[l][c]] += count[l][c];
+            }
+        }
+        std::vector<std::uint32_t> farDest(far.size());
+        for (std::size_t f = 0; f < far.size(); ++f) {
+            farDest[f] = static_cast<std::uint32_t>(findLeaf(newLeaves, far[f].first));
+            ++newCount[farDest[f]];
+        }
+        std::vector<std::uint32_t> newStart(newLeaves.size() + 1, 0);
+        for (std::size_t k = 0; k < newLeaves.size(); ++k)
+            newStart[k + 1] = newStart[k] + newCount[k];
+
+        // Cursor per (old leaf, direction): old leaves in ascending order fill each new leaf.
+        std::vector<std::uint32_t> cursor(newStart.begin(), newStart.end() - 1);
+        std::vector<std::array<std::uint32_t, kDirections>> first(nl);
+        std::size_t f = 0;
+        mOrder.resize(n);
+        for (std::size_t l = 0; l < nl; ++l) {
+            for (int c = 0; c < kDirections; ++c) {
+                if (count[l][c] == 0) continue;
+                first[l][c] = cursor[dest[l][c]];
+                cursor[dest[l][c]] += count[l][c];
+            }
+            for (; f < far.size() && far[f].second < leafStart[l + 1]; ++f)
+                mOrder[cursor[farDest[f]]++] = far[f].second;
+        }
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
+            for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                auto next = first[l];
+                for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i)
+                    if (code[i] != kFar) mOrder[next[code[i]]++] = i;
+            }
+        });
+        leaves.swap(newLeaves);
+        leafStart.swap(newStart);
+    }
+    gatherInPlace(x, mOrder, mScratch);
+    gatherInPlace(v, mOrder, mScratch);
+    gatherInPlace(C, mOrder, mScratch);
+    gatherInPlace(F, mOrder, mScratch);
+    gatherInPlace(tau, mOrder, mScratch);
+    gatherInPlace(mass, mOrder, mScratch);
+    gatherInPlace(volume0, mOrder, mScratch);
+    gatherInPlace(material, mOrder, mScratch);
+    gatherInPlace(plastic, mOrder, mScratch);
+}
+
+} // namespace firn

@@ -1,0 +1,408 @@
+// Scene files: TOML text -> overrides -> validated SceneDesc (scene-format.md).
+// One small reader per table; every key goes through a TableReader, which checks its type and
+// range and reports any key nobody asked for.
+#include <firn/scene.h>
+
+#include "overrides.h"
+#include "reader.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace firn {
+namespace scene {
+namespace {
+
+const Named<Transfer> kTransfers[] = {
+    {"apic", Transfer::Apic}, {"pic", Transfer::Pic}, {"flip", Transfer::Flip}};
+const Named<MaterialModel> kModels[] = {{"elastic", MaterialModel::Elastic},
+                                        {"snow", MaterialModel::Snow},
+                                        {"weak_layer", MaterialModel::WeakLayer},
+                                        {"granular", MaterialModel::Granular}};
+const Named<TerrainShape> kTerrainShapes[] = {{"plane", TerrainShape::Plane},
+                                              {"profile", TerrainShape::Profile},
+                                              {"heightfield", TerrainShape::Heightfield}};
+const Named<Boundary> kBoundaries[] = {
+    {"friction", Boundary::Friction}, {"slip", Boundary::Slip}, {"sticky", Boundary::Sticky}};
+const Named<BodyShape> kBodyShapes[] = {
+    {"box", BodyShape::Box}, {"sphere", BodyShape::Sphere}, {"layer", BodyShape::Layer}};
+
+// Which models use a material parameter, as bits indexed by MaterialModel.
+constexpr unsigned kElastic = 1u << static_cast<unsigned>(MaterialModel::Elastic);
+constexpr unsigned kSnow = 1u << static_cast<unsigned>(MaterialModel::Snow);
+constexpr unsigned kWeakLayer = 1u << static_cast<unsigned>(MaterialModel::WeakLayer);
+constexpr unsigned kGranular = 1u << static_cast<unsigned>(MaterialModel::Granular);
+constexpr unsigned kCamClay = kSnow | kWeakLayer;
+constexpr unsigned kAllModels = kElastic | kCamClay | kGranular;
+
+struct MaterialField {
+    const char* key;
+    double MaterialDesc::*member;
+    Range range;
+    unsigned models;
+};
+
+// The material parameters of scene-format.md; their defaults and units are in MaterialDesc.
+const MaterialField kMaterialFields[] = {
+    {"density", &MaterialDesc::density, Range::positive(), kAllModels},
+    {"youngs_modulus", &MaterialDesc::youngsModulus, Range::positive(), kAllModels},
+    {"poisson_ratio", &MaterialDesc::poissonRatio, Range::closedOpen(0.0, 0.5), kAllModels},
+    {"critical_state_slope", &MaterialDesc::criticalStateSlope, Range::positive(), kCamClay},
+    {"cohesion_ratio", &MaterialDesc::cohesionRatio, Range::nonNegative(), kCamClay},
+    {"initial_p0", &MaterialDesc::initialP0, Range::positive(), kCamClay},
+    {"hardening", &MaterialDesc::hardening, Range::positive(), kCamClay},
+    {"softening", &MaterialDesc::softening, Range::nonNegative(), kWeakLayer},
+    {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope, Range::positive(),
+     kWeakLayer},
+    {"friction_angle", &MaterialDesc::frictionAngle, Range::open(0.0, 90.0), kGranular},
+};
+
+// Keys that belong to one shape only; any other shape rejects them.
+template <typename Shape> struct ShapeKey {
+    Shape shape;
+    const char* key;
+};
+
+const ShapeKey<TerrainShape> kTerrainShapeKeys[] = {{TerrainShape::Plane, "point"},
+                                                    {TerrainShape::Plane, "normal"},
+                                                    {TerrainShape::Profile, "points"},
+                                                    {TerrainShape::Heightfield, "file"}};
+const ShapeKey<BodyShape> kBodyShapeKeys[] = {{BodyShape::Box, "min"},
+                                              {BodyShape::Box, "max"},
+                                              {BodyShape::Sphere, "center"},
+                                              {BodyShape::Sphere, "radius"},
+                                              {BodyShape::Layer, "on_top_of"},
+                                              {BodyShape::Layer, "thickness"},
+                                              {BodyShape::Layer, "x_range"},
+                                              {BodyShape::Layer, "z_range"},
+                                              {BodyShape::Layer, "thickness_noise"}};
+
+template <typename Shape, std::size_t N, std::size_t M>
+void rejectOtherShapeKeys(TableReader& r, Shape shape, const ShapeKey<Shape> (&keys)[N],
+                          const Named<Shape> (&names)[M]) {
+    const std::string why = std::string("shape \"") + nameOf(shape, names) + "\"";
+    for (const auto& entry : keys) {
+        if (entry.shape != shape) r.notApplicable(entry.key, why);
+    }
+}
+
+std::string inQuotes(const std::string& text) {
+    return "\"" + text + "\"";
+}
+
+std::string namesOrNone(const std::string& names) {
+    return names.empty() ? "none" : names;
+}
+
+// Index of the entry of `list` called `name` among those `eligible`, or -1; `names` gets the
+// eligible names, for the message that lists what could have been meant.
+template <typename Desc, typename Eligible>
+int indexOfName(const std::vector<Desc>& list, const std::string& name, Eligible eligible,
+                std::string& names) {
+    for (std::size_t i = 0; i < list.size(); ++i) {
+        if (!eligible(list[i])) continue;
+        if (list[i].name == name) return static_cast<int>(i);
+        names += (names.empty() ? "" : ", ") + list[i].name;
+    }
+    return -1;
+}
+
+template <typename Desc>
+void checkUniqueName(TableReader& r, const std::string& name, const std::vector<Desc>& earlier,
+                     const char* kind) {
+    for (std::size_t i = 0; i < earlier.size(); ++i) {
+        if (earlier[i].name != name) continue;
+        r.failAt("name", "already used by " + std::string(kind) + " " + std::to_string(i + 1));
+    }
+}
+
+void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) {
+    r.string("name", sim.name);
+    r.integer("dimension", sim.dimension, Range::closed(2, 3));
+    // Read before any vector: `dimension` decides how many components they must have.
+    context.dimension = sim.dimension;
+    r.real("end_time", sim.endTime, Range::positive());
+    r.real("frame_rate", sim.frameRate, Range::positive());
+    r.vector("gravity", sim.gravity);
+    r.integer("seed", sim.seed, Range::nonNegative());
+    r.finish();
+}
+
+void readGrid(TableReader& r, GridDesc& grid) {
+    r.real("dx", grid.dx, Range::positive());
+    r.integer("particles_per_cell", grid.particlesPerCell, Range::closed(1, 64));
+    r.choice("transfer", grid.transfer, kTransfers);
+    // Accepted with every transfer, so that --set grid.transfer=apic works on a FLIP scene.
+    r.real("flip_blend", grid.flipBlend, Range::closed(0.0, 1.0));
+    r.real("cfl", grid.cfl, Range::openClosed(0.0, 10.0));
+    r.real("max_dt", grid.maxDt, Range::positive());
+    r.real("jitter", grid.jitter, Range::closed(0.0, 1.0));
+    r.finish();
+}
+
+MaterialDesc readMaterial(TableReader& r, const std::vector<MaterialDesc>& earlier) {
+    MaterialDesc m;
+    m.loc = r.headerLoc();
+    r.require({"name", "model"});
+    r.string("name", m.name);
+    checkUniqueName(r, m.name, earlier, "material");
+    r.choice("model", m.model, kModels);
+    const unsigned modelBit = 1u << static_cast<unsigned>(m.model);
+    const std::string why = "model " + inQuotes(toString(m.model));
+    for (const auto& field : kMaterialFields) {
+        if (field.models & modelBit) {
+            r.real(field.key, m.*field.member, field.range);
+        } else {
+            r.notApplicable(field.key, why);
+        }
+    }
+    r.finish();
+    return m;
+}
+
+void readPlane(TableReader& r, TerrainDesc& terrain) {
+    r.require({"point", "normal"}, "shape \"plane\"");
+    r.vector("point", terrain.point);
+    r.vector("normal", terrain.normal);
+    const Vec3d& n = terrain.normal;
+    const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (!(length > 0.0)) r.failAt("normal", "must not be zero");
+    for (double& c : terrain.normal) c /= length;
+}
+
+std::string resolvePath(const std::string& folder, const std::string& file) {
+    const std::filesystem::path path(file);
+    if (path.is_absolute() || folder.empty()) return file;
+    return (std::filesystem::path(folder) / path).string();
+}
+
+void readHeightfield(TableReader& r, TerrainDesc& terrain) {
+    r.require({"file"}, "shape \"heightfield\"");
+    if (r.context().dimension != 3) {
+        r.failAt("shape", "\"heightfield\" needs dimension = 3");
+    }
+    r.string("file", terrain.file);
+    terrain.file = resolvePath(r.context().folder, terrain.file);
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(terrain.file, error)) {
+        r.failAt("file", "file not found: " + terrain.file);
+    }
+}
+
+TerrainDesc readTerrain(TableReader& r) {
+    TerrainDesc terrain;
+    terrain.loc = r.headerLoc();
+    r.require({"shape"});
+    r.choice("shape", terrain.shape, kTerrainShapes);
+    if (terrain.shape == TerrainShape::Plane) readPlane(r, terrain);
+    if (terrain.shape == TerrainShape::Heightfield) readHeightfield(r, terrain);
+    if (terrain.shape == TerrainShape::Profile) {
+        r.require({"points"}, "shape \"profile\"");
+        r.polyline("points", terrain.points);
+    }
+    rejectOtherShapeKeys(r, terrain.shape, kTerrainShapeKeys, kTerrainShapes);
+    r.choice("boundary", terrain.boundary, kBoundaries);
+    if (terrain.boundary == Boundary::Friction) {
+        r.real("friction", terrain.friction, Range::nonNegative());
+    } else {
+        r.notApplicable("friction", "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries)));
+    }
+    r.finish();
+    return terrain;
+}
+
+std::string formatVector(const Vec3d& v, int dimension) {
+    std::string out = "[";
+    for (int i = 0; i < dimension; ++i) out += (i ? ", " : "") + formatNumber(v[i]);
+    return out + "]";
+}
+
+void readBox(TableReader& r, BodyDesc& body) {
+    r.require({"min", "max"}, "shape \"box\"");
+    r.vector("min", body.min);
+    r.vector("max", body.max);
+    const int dimension = r.context().dimension;
+    for (int i = 0; i < dimension; ++i) {
+        if (body.min[i] < body.max[i]) continue;
+        r.failAt("max", "must exceed min in every component, got min " +
+                            formatVector(body.min, dimension) + ", max " +
+                            formatVector(body.max, dimension));
+    }
+}
+
+void readSphere(TableReader& r, BodyDesc& body) {
+    r.require({"center", "radius"}, "shape \"sphere\"");
+    r.vector("center", body.center);
+    r.real("radius", body.radius, Range::positive());
+}
+
+bool isLayer(const BodyDesc& body) {
+    return body.shape == BodyShape::Layer && !body.name.empty();
+}
+
+void readLayerSupport(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
+    if (!r.string("on_top_of", body.onTopOf) || body.onTopOf == "ground") return;
+    std::string layers;
+    if (indexOfName(earlier, body.onTopOf, isLayer, layers) >= 0) return;
+    r.failReference("on_top_of", "on_top_of " + inQuotes(body.onTopOf) +
+                                     " is neither \"ground\" nor an earlier layer body (layers: " +
+                                     namesOrNone(layers) + ")");
+}
+
+void readLayer(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
+    const bool is3d = r.context().dimension == 3;
+    r.require({"thickness", "x_range"}, "shape \"layer\"");
+    if (is3d) r.require({"z_range"}, "shape \"layer\"");
+    r.real("thickness", body.thickness, Range::positive());
+    r.interval("x_range", body.xRange);
+    if (is3d) {
+        r.interval("z_range", body.zRange);
+    } else {
+        r.notApplicable("z_range", "a 2D scene");
+    }
+    readLayerSupport(r, body, earlier);
+    if (auto noise = r.subTable("thickness_noise", r.keyName("thickness_noise") + ".")) {
+        noise->real("std", body.thicknessNoise.std, Range::nonNegative());
+        noise->real("correlation_length", body.thicknessNoise.correlationLength, Range::positive());
+        noise->finish();
+    }
+}
+
+int resolveMaterial(TableReader& r, const std::string& name,
+                    const std::vector<MaterialDesc>& materials) {
+    std::string names;
+    const int index = indexOfName(
+        materials, name, [](const MaterialDesc&) { return true; }, names);
+    if (index >= 0) return index;
+    r.failReference("material", "material " + inQuotes(name) +
+                                    " is not defined (materials: " + namesOrNone(names) + ")");
+}
+
+BodyDesc readBody(TableReader& r, const std::vector<MaterialDesc>& materials,
+                  const std::vector<BodyDesc>& earlier) {
+    BodyDesc body;
+    body.loc = r.headerLoc();
+    r.require({"material", "shape"});
+    if (r.string("name", body.name)) {
+        checkUniqueName(r, body.name, earlier, "body");
+        // "ground" is what on_top_of calls the terrain; a body by that name would be ambiguous.
+        if (body.name == "ground") r.failAt("name", "\"ground\" is reserved");
+    }
+    r.string("material", body.material);
+    body.materialIndex = resolveMaterial(r, body.material, materials);
+    r.choice("shape", body.shape, kBodyShapes);
+    r.vector("velocity", body.velocity);
+    if (body.shape == BodyShape::Box) readBox(r, body);
+    if (body.shape == BodyShape::Sphere) readSphere(r, body);
+    if (body.shape == BodyShape::Layer) readLayer(r, body, earlier);
+    rejectOtherShapeKeys(r, body.shape, kBodyShapeKeys, kBodyShapes);
+    r.finish();
+    return body;
+}
+
+CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
+    CutDesc cut;
+    cut.loc = r.headerLoc();
+    r.require({"layer", "from_x", "length"});
+    r.string("layer", cut.layer);
+    std::string layers;
+    if (indexOfName(bodies, cut.layer, isLayer, layers) < 0) {
+        r.failReference("layer", "layer " + inQuotes(cut.layer) +
+                                     " is not a layer body (layers: " + namesOrNone(layers) + ")");
+    }
+    r.real("from_x", cut.fromX);
+    r.real("length", cut.length, Range::positive());
+    r.finish();
+    return cut;
+}
+
+void readOutput(TableReader& r, OutputDesc& output) {
+    r.string("directory", output.directory);
+    r.boolean("particles", output.particles);
+    r.stringList("volumes", output.volumes, {"density", "velocity", "failed"});
+    r.finish();
+}
+
+// Calls readOne with a reader for each [[key]] entry, labelled `key "name"` when `named` and the
+// entry has a name, else `key 3` (1-based), as messages name them.
+template <typename ReadOne>
+void forEachEntry(TableReader& root, const char* key, bool named, ReadOne readOne) {
+    const std::vector<const toml::table*> tables = root.tableArray(key);
+    for (std::size_t i = 0; i < tables.size(); ++i) {
+        const auto* name = named ? tables[i]->get_as<std::string>("name") : nullptr;
+        const std::string label =
+            name && !name->get().empty() ? inQuotes(name->get()) : std::to_string(i + 1);
+        TableReader entry(*tables[i], root.context(), std::string(key) + " " + label + ": ");
+        readOne(entry);
+    }
+}
+
+SceneDesc readScene(const toml::table& root, const std::string& path) {
+    SceneDesc scene;
+    scene.path = path;
+    SceneContext context{path, std::filesystem::path(path).parent_path().string(), 3};
+    TableReader r(root, context, "");
+    // [simulation] first, for its dimension; then each table before those that refer to it.
+    if (auto t = r.subTable("simulation", "simulation.")) {
+        readSimulation(*t, scene.simulation, context);
+    }
+    if (auto t = r.subTable("grid", "grid.")) readGrid(*t, scene.grid);
+    forEachEntry(r, "material", true, [&](TableReader& entry) {
+        scene.materials.push_back(readMaterial(entry, scene.materials));
+    });
+    forEachEntry(r, "terrain", false,
+                 [&](TableReader& entry) { scene.terrains.push_back(readTerrain(entry)); });
+    forEachEntry(r, "body", true, [&](TableReader& entry) {
+        scene.bodies.push_back(readBody(entry, scene.materials, scene.bodies));
+    });
+    forEachEntry(r, "cut", false,
+                 [&](TableReader& entry) { scene.cuts.push_back(readCut(entry, scene.bodies)); });
+    if (auto t = r.subTable("output", "output.")) readOutput(*t, scene.output);
+    if (scene.output.directory.empty()) scene.output.directory = "out/" + scene.simulation.name;
+    r.finish();
+    return scene;
+}
+
+toml::table parseDocument(const std::string& text, const std::string& path) {
+    try {
+        return toml::parse(text, std::string_view(path));
+    } catch (const toml::parse_error& e) {
+        const auto& at = e.source().begin;
+        throw SceneError(SourceLoc{path, static_cast<int>(at.line), static_cast<int>(at.column)},
+                         "syntax", std::string(e.description()));
+    }
+}
+
+} // namespace
+} // namespace scene
+
+SceneDesc parseScene(const std::string& text, const std::string& path,
+                     const std::vector<std::string>& overrides) {
+    toml::table root = scene::parseDocument(text, path);
+    scene::applyOverrides(root, overrides);
+    SceneDesc desc = scene::readScene(root, path);
+    std::ostringstream resolved;
+    resolved << root;
+    desc.resolvedToml = resolved.str();
+    return desc;
+}
+
+SceneDesc loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(SourceLoc{path, 0, 0}, "", "cannot open scene file");
+    std::ostringstream text;
+    text << in.rdbuf();
+    return parseScene(text.str(), path, overrides);
+}
+
+const char* toString(Transfer transfer) {
+    return scene::nameOf(transfer, scene::kTransfers);
+}
+
+const char* toString(MaterialModel model) {
+    return scene::nameOf(model, scene::kModels);
+}
+
+} // namespace firn

@@ -1,0 +1,206 @@
+// Scene -> world: materials, colliders and particle seeding from bodies.
+#include <firn/solver.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace firn {
+
+namespace {
+
+/// SplitMix64 (Steele et al. 2014): a counter-based generator, so that every seed position
+/// depends only on (seed, body, cell, sample) and not on the order of seeding.
+std::uint64_t splitMix(std::uint64_t z)
+{
+    z += 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+float uniform01(std::uint64_t& state)
+{
+    state = splitMix(state);
+    return float(state >> 40) * (1.f / 16777216.f);
+}
+
+Vec3f toVec3f(const Vec3d& v) { return Vec3f(float(v[0]), float(v[1]), float(v[2])); }
+
+/// Smallest signed distance to any terrain: the height above the ground, measured normal to it.
+float groundDistance(const std::vector<Collider>& colliders, const Vec3f& p)
+{
+    float d = std::numeric_limits<float>::max();
+    for (const Collider& c : colliders) d = std::min(d, c.signedDistance(p));
+    return d;
+}
+
+float groundHeight(const std::vector<Collider>& colliders, float x, float z)
+{
+    float h = -std::numeric_limits<float>::infinity();
+    for (const Collider& c : colliders) h = std::max(h, c.heightAt(x, z));
+    return h;
+}
+
+/// Distance from the ground to the base of a layer body: the thicknesses below it.
+double layerBase(const SceneDesc& scene, const BodyDesc& body)
+{
+    double base = 0.0;
+    for (const BodyDesc* b = &body; b->onTopOf != "ground";) {
+        auto below = std::find_if(scene.bodies.begin(), scene.bodies.end(),
+                                  [&](const BodyDesc& o) { return o.name == b->onTopOf; });
+        if (below == scene.bodies.end()) break; // the parser resolved names; be safe anyway
+        base += below->thickness;
+        b = &*below;
+    }
+    return base;
+}
+
+struct SeedRegion {
+    Vec3f lo, hi;                            ///< bounding box, m
+    std::function<bool(const Vec3f&)> inside;
+};
+
+SeedRegion regionOf(const SceneDesc& scene, const BodyDesc& body,
+                    const std::vector<Collider>& colliders)
+{
+    const int dim = scene.simulation.dimension;
+    SeedRegion r;
+    if (body.shape == BodyShape::Box) {
+        const Vec3f lo = toVec3f(body.min), hi = toVec3f(body.max);
+        r.lo = lo, r.hi = hi;
+        r.inside = [lo, hi, dim](const Vec3f& p) {
+            for (int a = 0; a < dim; ++a)
+                if (p[a] < lo[a] || p[a] >= hi[a]) return false;
+            return true;
+        };
+    } else if (body.shape == BodyShape::Sphere) {
+        const Vec3f c = toVec3f(body.center);
+        const float rad = float(body.radius);
+        r.lo = c - Vec3f::Constant(rad), r.hi = c + Vec3f::Constant(rad);
+        r.inside = [c, rad](const Vec3f& p) { return (p - c).squaredNorm() < rad * rad; };
+    } else {
+        if (colliders.empty())
+            throw SceneError(body.loc, "body: shape",
+                             "a \"layer\" body needs a [[terrain]] to lie on");
+        if (body.thicknessNoise.std > 0.0)
+            throw SceneError(body.loc, "body: thickness_noise",
+                             "thickness noise needs the noise model, which this build lacks; "
+                             "set std = 0");
+        const float base = float(layerBase(scene, body));
+        const float top = base + float(body.thickness);
+        const float x0 = float(body.xRange[0]), x1 = float(body.xRange[1]);
+        const float z0 = dim == 3 ? float(body.zRange[0]) : 0.f;
+        const float z1 = dim == 3 ? float(body.zRange[1]) : 0.f;
+        float hLo = std::numeric_limits<float>::max(), hHi = -hLo;
+        for (int s = 0; s <= 256; ++s) {
+            const float h = groundHeight(colliders, x0 + (x1 - x0) * s / 256.f, 0.5f * (z0 + z1));
+            hLo = std::min(hLo, h), hHi = std::max(hHi, h);
+        }
+        // Normal thickness on slopes up to ~75 degrees fits in 4 times the vertical span.
+        r.lo = Vec3f(x0, hLo - top, z0);
+        r.hi = Vec3f(x1, hHi + 4.f * top, z1);
+        r.inside = [&colliders, x0, x1, z0, z1, base, top, dim](const Vec3f& p) {
+            if (p[0] < x0 || p[0] >= x1) return false;
+            if (dim == 3 && (p[2] < z0 || p[2] >= z1)) return false;
+            const float d = groundDistance(colliders, p);
+            return d >= base && d < top;
+        };
+    }
+    if (dim == 2) r.lo[2] = r.hi[2] = 0.f;
+    return r;
+}
+
+bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p)
+{
+    for (const CutDesc& cut : scene.cuts)
+        if (!body.name.empty() && cut.layer == body.name && p[0] >= cut.fromX &&
+            p[0] < cut.fromX + cut.length)
+            return true;
+    return false;
+}
+
+/// Seeds particles_per_cell particles in every cell of the body's bounding box: stratified on a
+/// k^d sub-lattice when particles_per_cell = k^d, uniformly random in the cell otherwise, with
+/// positions jittered by `jitter` of a sub-cell.
+void seedBodies(const SceneDesc& scene, World& world)
+{
+    const int dim = scene.simulation.dimension;
+    const int ppc = scene.grid.particlesPerCell;
+    const double dx = scene.grid.dx;
+    const int k = int(std::lround(std::pow(double(ppc), 1.0 / dim)));
+    const bool lattice = int(std::lround(std::pow(double(k), dim))) == ppc;
+    const float jitter = float(scene.grid.jitter);
+    const float volume = float(std::pow(dx, dim) / ppc);
+
+    std::vector<SeedRegion> regions;
+    for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
+        const BodyDesc& body = scene.bodies[bi];
+        regions.push_back(regionOf(scene, body, world.colliders));
+        const SeedRegion& region = regions.back();
+        const Material& mat = world.materials[body.materialIndex];
+        std::array<long, 3> c0{0, 0, 0}, c1{0, 0, 0};
+        for (int a = 0; a < dim; ++a) {
+            c0[a] = long(std::floor(region.lo[a] / dx));
+            c1[a] = long(std::ceil(region.hi[a] / dx));
+        }
+        for (long cx = c0[0]; cx < c1[0]; ++cx)
+            for (long cy = c0[1]; cy < c1[1]; ++cy)
+                for (long cz = c0[2]; cz < std::max(c1[2], c0[2] + 1); ++cz) {
+                    std::uint64_t state = splitMix(scene.simulation.seed * 0x9e37ull + bi);
+                    state = splitMix(state ^ std::uint64_t(cx) * 0x100000001b3ull);
+                    state = splitMix(state ^ std::uint64_t(cy) * 0x1000193ull);
+                    state = splitMix(state ^ std::uint64_t(cz));
+                    for (int s = 0; s < ppc; ++s) {
+                        const int sub[3] = {s % k, (s / k) % k, s / (k * k)};
+                        Vec3f p = Vec3f::Zero();
+                        const long cell[3] = {cx, cy, cz};
+                        for (int a = 0; a < dim; ++a) {
+                            const float u = uniform01(state);
+                            const float f = lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k
+                                                    : u;
+                            p[a] = float((double(cell[a]) + f) * dx);
+                        }
+                        if (!region.inside(p) || insideCut(scene, body, p)) continue;
+                        bool taken = false;
+                        for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
+                            taken = regions[e].inside(p);
+                        if (taken) continue;
+                        world.particles.add(p, toVec3f(body.velocity), mat.density * volume,
+                                            volume, body.materialIndex, mat.initialState());
+                    }
+                }
+    }
+}
+
+} // namespace
+
+std::unique_ptr<World> buildWorld(const SceneDesc& scene)
+{
+    auto world = std::make_unique<World>();
+    World& w = *world;
+    w.dim = scene.simulation.dimension;
+    w.dx = float(scene.grid.dx);
+    w.transfer = scene.grid.transfer;
+    w.flipBlend = float(scene.grid.flipBlend);
+    w.cfl = float(scene.grid.cfl);
+    w.maxDt = float(scene.grid.maxDt);
+    w.gravity = toVec3f(scene.simulation.gravity);
+    if (w.dim == 2) w.gravity[2] = 0.f;
+    for (const MaterialDesc& m : scene.materials) w.materials.push_back(Material::fromDesc(m, w.dim));
+    for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));
+
+    w.particles.dim = w.dim;
+    w.particles.dx = w.dx;
+    seedBodies(scene, w);
+    w.particles.bucketByLeaf();
+    for (std::size_t i = 0; i < w.particles.size(); ++i) {
+        const Material& m = w.materials[w.particles.material[i]];
+        w.maxWaveSpeed = std::max(w.maxWaveSpeed, m.pWaveSpeed());
+        w.maxSpeed = std::max(w.maxSpeed, w.particles.v[i].norm());
+    }
+    return world;
+}
+
+} // namespace firn

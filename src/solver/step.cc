@@ -1,0 +1,148 @@
+#include <firn/solver.h>
+#include <firn/svd.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace firn {
+
+namespace {
+
+class StageClock {
+public:
+    explicit StageClock(double* sink)
+        : mSink(sink)
+        , mStart(std::chrono::steady_clock::now())
+    {
+    }
+    ~StageClock()
+    {
+        if (mSink)
+            *mSink += std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart)
+                          .count();
+    }
+
+private:
+    double* mSink;
+    std::chrono::steady_clock::time_point mStart;
+};
+
+Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d)
+{
+    const Mat3f t = U * d.asDiagonal() * U.transpose();
+    return Sym3f{t(0, 0), t(1, 1), t(2, 2), t(0, 1), t(0, 2), t(1, 2)};
+}
+
+} // namespace
+
+double stableTimeStep(const World& world)
+{
+    const double speed = double(world.maxSpeed) + double(world.maxWaveSpeed);
+    if (speed <= 0.0) return world.maxDt;
+    return std::min(double(world.maxDt), double(world.cfl) * world.dx / speed);
+}
+
+void updateGridVelocity(World& world, float dt)
+{
+    Grid& grid = world.grid;
+    const bool flip = world.transfer == Transfer::Flip;
+    const int nk = world.dim == 3 ? kLeafDim : 1;
+    const Vec3f dv = dt * world.gravity;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](
+                                                                                const auto& r) {
+        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+            const float* mass = grid.mass(b);
+            float* vel = grid.velocity(b);
+            float* aux = flip ? grid.aux(b) : nullptr;
+            const LeafKey& key = grid.blockKey(b);
+            for (int i = 0; i < kLeafDim; ++i)
+                for (int j = 0; j < kLeafDim; ++j)
+                    for (int k = 0; k < nk; ++k) {
+                        const int n = (i << 6) | (j << 3) | k;
+                        float* v = vel + 3 * n;
+                        if (mass[n] <= 0.f) {
+                            v[0] = v[1] = v[2] = 0.f;
+                            continue;
+                        }
+                        const float invM = 1.f / mass[n];
+                        Vec3f vn(v[0] * invM, v[1] * invM, v[2] * invM);
+                        if (flip) {
+                            // aux: stress impulse in, velocity before forces out (FLIP reference)
+                            const Vec3f impulse(aux[3 * n], aux[3 * n + 1], aux[3 * n + 2]);
+                            for (int c = 0; c < 3; ++c) aux[3 * n + c] = vn[c];
+                            vn += invM * impulse;
+                        }
+                        vn += dv;
+                        const Vec3f xn(float(key[0] * kLeafDim + i) * world.dx,
+                                       float(key[1] * kLeafDim + j) * world.dx,
+                                       world.dim == 3 ? float(key[2] * kLeafDim + k) * world.dx
+                                                      : 0.f);
+                        for (const Collider& c : world.colliders)
+                            if (c.signedDistance(xn) <= 0.f)
+                                vn = c.applyBoundary(vn, c.normal(xn));
+                        v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
+                    }
+        }
+    });
+}
+
+void applyPlasticity(World& world)
+{
+    ParticleSet& ps = world.particles;
+    const int dim = world.dim;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const Material& mat = world.materials[ps.material[i]];
+            const LeftStretch ls = leftStretch(ps.F[i], dim);
+            Vec3f eps = Vec3f::Zero();
+            for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
+            if (mat.model != MaterialModel::Elastic) {
+                const ReturnMapResult rm = returnMap(mat, eps, ps.plastic[i]);
+                ps.plastic[i] = rm.state;
+                if (rm.eps != eps) {
+                    // Fe = U exp(eps) V^T = U diag(exp(eps) / sigma) U^T Fe_trial
+                    Vec3f scale = Vec3f::Ones();
+                    for (int a = 0; a < dim; ++a) scale[a] = std::exp(rm.eps[a]) / ls.sigma[a];
+                    ps.F[i] = (ls.U * scale.asDiagonal() * ls.U.transpose()) * ps.F[i];
+                    eps = rm.eps;
+                }
+            }
+            ps.tau[i] = rotateDiagonal(ls.U, kirchhoffPrincipal(mat.lame, eps, dim));
+        }
+    });
+}
+
+void step(World& world, double dt, StepTimings* timings)
+{
+    const float dtf = static_cast<float>(dt);
+    const TransferParams params{world.dim, world.dx, dtf, world.transfer, world.flipBlend};
+    {
+        StageClock clock(timings ? &timings->p2g : nullptr);
+        world.grid.rebuild(world.particles, world.transfer == Transfer::Flip ? 3 : 0);
+        particlesToGrid(world.particles, world.grid, params, world.scratch);
+    }
+    {
+        StageClock clock(timings ? &timings->gridUpdate : nullptr);
+        updateGridVelocity(world, dtf);
+    }
+    {
+        StageClock clock(timings ? &timings->g2p : nullptr);
+        world.maxSpeed = gridToParticles(world.particles, world.grid, params);
+    }
+    {
+        StageClock clock(timings ? &timings->plasticity : nullptr);
+        applyPlasticity(world);
+    }
+    {
+        StageClock clock(timings ? &timings->sort : nullptr);
+        world.particles.bucketByLeaf();
+    }
+    world.time += dt;
+    ++world.steps;
+}
+
+} // namespace firn

@@ -1,0 +1,322 @@
+#include <firn/bspline.h>
+#include <firn/transfer.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace firn {
+
+namespace {
+
+constexpr int kPad = kLeafDim + 2; // a particle leaf reaches nodes 8k .. 8k + 9
+
+template <int Dim>
+constexpr int paddedNodes()
+{
+    return Dim == 3 ? kPad * kPad * kPad : kPad * kPad;
+}
+
+template <int Dim>
+inline int paddedIndex(int a, int b, int c)
+{
+    return Dim == 3 ? (a * kPad + b) * kPad + c : a * kPad + b;
+}
+
+inline int leafOffset(int i, int j, int k) { return (i << 6) | (j << 3) | k; }
+
+/// Weights of a particle, with the base node relative to its leaf's first node.
+struct Stencil {
+    int base[3] = {0, 0, 0};
+    float fx[3] = {1.f, 1.f, 1.f};
+    float w[3][3] = {{0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}};
+};
+
+template <int Dim>
+inline Stencil stencilOf(const Vec3f& x, float invDx, const LeafKey& leaf)
+{
+    Stencil s;
+    for (int a = 0; a < Dim; ++a) {
+        const QuadraticWeights q = quadraticWeights(x[a] * invDx);
+        s.base[a] = q.base - leaf[a] * kLeafDim;
+        s.fx[a] = q.fx;
+        s.w[a][0] = q.w[0], s.w[a][1] = q.w[1], s.w[a][2] = q.w[2];
+    }
+    return s;
+}
+
+/// Visits the 3^Dim nodes of a stencil: fn(padded index, weight, offset node - particle in
+/// grid units).
+template <int Dim, typename Fn>
+inline void forEachNode(const Stencil& s, Fn&& fn)
+{
+    constexpr int nk = Dim == 3 ? 3 : 1;
+    for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) {
+            const float wab = s.w[0][a] * s.w[1][b];
+            for (int c = 0; c < nk; ++c) {
+                const float w = Dim == 3 ? wab * s.w[2][c] : wab;
+                const Vec3f d(float(a) - s.fx[0], float(b) - s.fx[1],
+                              Dim == 3 ? float(c) - s.fx[2] : 0.f);
+                fn(paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c), w, d);
+            }
+        }
+    }
+}
+
+/// Scatter phase. ParticleFn(i, float value[NC], Mat3f& affine) fills the constant part of the
+/// particle's contribution and, if Affine, a matrix (per metre) whose product with the node
+/// offset is added to channels AffineAt .. AffineAt + 2.
+template <int Dim, int NC, bool Affine, int AffineAt, typename ParticleFn>
+void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn&& fn)
+{
+    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
+    padded.assign(ps.leafCount() * stride, 0.f);
+    const float invDx = 1.f / ps.dx;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            float* buf = padded.data() + l * stride;
+            for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+                const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
+                float value[NC];
+                Mat3f affine;
+                fn(i, value, affine);
+                if (Affine) affine *= ps.dx; // node offsets below are in grid units
+                forEachNode<Dim>(s, [&](int node, float w, const Vec3f& d) {
+                    float* out = buf + node * NC;
+                    for (int ch = 0; ch < NC; ++ch) out[ch] += w * value[ch];
+                    if (Affine) {
+                        const Vec3f a = affine * d;
+                        for (int ch = 0; ch < 3; ++ch) out[AffineAt + ch] += w * a[ch];
+                    }
+                });
+            }
+        }
+    });
+}
+
+/// Node ranges of the overlap of particle leaf (block - o) with block, per axis.
+inline int overlapEnd(int o, int axisBit) { return (o >> axisBit) & 1 ? 2 : kLeafDim; }
+inline int overlapShift(int o, int axisBit) { return (o >> axisBit) & 1 ? kLeafDim : 0; }
+
+/// Merge phase: every grid block sums its overlapping padded blocks in the fixed order
+/// o = 0 .. 2^Dim - 1 into acc[512 * NC], then hands it to sink(b, acc).
+template <int Dim, int NC, typename SinkFn>
+void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& sink)
+{
+    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
+    const auto& sources = grid.particleLeavesOfBlock();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](
+                                                                                const auto& r) {
+        std::vector<float> acc(std::size_t(kLeafNodes) * NC);
+        for (std::size_t b = r.begin(); b != r.end(); ++b) {
+            std::fill(acc.begin(), acc.end(), 0.f);
+            for (int o = 0; o < (1 << Dim); ++o) {
+                const std::int32_t l = sources[b][o];
+                if (l < 0) continue;
+                const float* src = padded.data() + std::size_t(l) * stride;
+                const int kEnd = Dim == 3 ? overlapEnd(o, 2) : 1;
+                for (int i = 0; i < overlapEnd(o, 0); ++i)
+                    for (int j = 0; j < overlapEnd(o, 1); ++j)
+                        for (int k = 0; k < kEnd; ++k) {
+                            const float* s = src + NC * paddedIndex<Dim>(i + overlapShift(o, 0),
+                                                                        j + overlapShift(o, 1),
+                                                                        k + overlapShift(o, 2));
+                            float* d = acc.data() + NC * leafOffset(i, j, k);
+                            for (int ch = 0; ch < NC; ++ch) d[ch] += s[ch];
+                        }
+            }
+            sink(b, acc.data());
+        }
+    });
+}
+
+/// Copies `channels` floats per node of the 2^Dim blocks around particle leaf l into a padded
+/// local array (10^Dim nodes), so that G2P reads without per-node block lookups.
+template <int Dim>
+void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const Grid&, std::size_t),
+                  int channels, int channelOffset, float* out)
+{
+    const auto& blocks = grid.blocksOfParticleLeaf()[l];
+    for (int o = 0; o < (1 << Dim); ++o) {
+        const float* src = field(grid, std::size_t(blocks[o]));
+        const int kEnd = Dim == 3 ? overlapEnd(o, 2) : 1;
+        for (int i = 0; i < overlapEnd(o, 0); ++i)
+            for (int j = 0; j < overlapEnd(o, 1); ++j)
+                for (int k = 0; k < kEnd; ++k) {
+                    const float* s = src + 3 * leafOffset(i, j, k) + channelOffset;
+                    float* d = out + channels * paddedIndex<Dim>(i + overlapShift(o, 0),
+                                                               j + overlapShift(o, 1),
+                                                               k + overlapShift(o, 2));
+                    for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
+                }
+    }
+}
+
+const float* velocityField(const Grid& g, std::size_t b) { return g.velocity(b); }
+const float* auxField(const Grid& g, std::size_t b) { return g.aux(b); }
+
+Mat3f toMatrix(const Sym3f& t)
+{
+    Mat3f m;
+    m << t.xx, t.xy, t.xz, t.xy, t.yy, t.yz, t.xz, t.yz, t.zz;
+    return m;
+}
+
+template <int Dim>
+void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
+         TransferScratch& scratch)
+{
+    const float dInv = apicInverseD(1.f / params.dx);
+    const bool apic = params.transfer == Transfer::Apic;
+    // MLS force: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al. 2018, eq. 18).
+    auto stressImpulse = [&](std::uint32_t i) {
+        return Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.tau[i]));
+    };
+    if (params.transfer != Transfer::Flip) {
+        scatterLeaves<Dim, 4, true, 1>(ps, scratch.padded, [&](std::uint32_t i, float* value,
+                                                               Mat3f& affine) {
+            const float m = ps.mass[i];
+            value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+            value[3] = m * ps.v[i][2];
+            affine = stressImpulse(i);
+            if (apic) affine += m * ps.C[i];
+        });
+        mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+            float* mass = grid.mass(b);
+            float* mom = grid.velocity(b);
+            for (int n = 0; n < kLeafNodes; ++n) {
+                mass[n] = acc[4 * n];
+                for (int c = 0; c < 3; ++c) mom[3 * n + c] = acc[4 * n + 1 + c];
+            }
+        });
+        return;
+    }
+    // FLIP keeps the transferred momentum and the stress impulse apart: the grid velocity
+    // before forces is the reference of the FLIP increment.
+    scatterLeaves<Dim, 7, true, 4>(ps, scratch.padded, [&](std::uint32_t i, float* value,
+                                                           Mat3f& affine) {
+        const float m = ps.mass[i];
+        value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+        value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
+        affine = stressImpulse(i);
+    });
+    mergeBlocks<Dim, 7>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+        float* mass = grid.mass(b);
+        float* mom = grid.velocity(b);
+        float* impulse = grid.aux(b);
+        for (int n = 0; n < kLeafNodes; ++n) {
+            mass[n] = acc[7 * n];
+            for (int c = 0; c < 3; ++c) {
+                mom[3 * n + c] = acc[7 * n + 1 + c];
+                impulse[3 * n + c] = acc[7 * n + 4 + c];
+            }
+        }
+    });
+}
+
+template <int Dim, bool Flip>
+float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params)
+{
+    const float invDx = 1.f / ps.dx;
+    const float cScale = apicInverseD(invDx) * ps.dx; // C = 4/dx^2 B with offsets in grid units
+    const float dt = params.dt, flip = params.flipBlend;
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), 0.f,
+        [&](const auto& r, float maxSpeed) {
+            constexpr int channels = Flip ? 6 : 3;
+            float local[paddedNodes<Dim>() * channels];
+            for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                gatherPadded<Dim>(grid, l, velocityField, channels, 0, local);
+                if (Flip) gatherPadded<Dim>(grid, l, auxField, channels, 0, local + 3);
+                for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+                    const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
+                    Vec3f vPic = Vec3f::Zero(), dvFlip = Vec3f::Zero();
+                    Mat3f B = Mat3f::Zero();
+                    forEachNode<Dim>(s, [&](int node, float w, const Vec3f& d) {
+                        const float* g = local + channels * node;
+                        const Vec3f vi(g[0], g[1], g[2]);
+                        vPic += w * vi;
+                        B.noalias() += (w * vi) * d.transpose();
+                        if (Flip) dvFlip += w * (vi - Vec3f(g[3], g[4], g[5]));
+                    });
+                    const Mat3f C = cScale * B;
+                    ps.C[i] = C;
+                    ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic)
+                                   : vPic;
+                    ps.x[i] += dt * vPic;
+                    ps.F[i] = (Mat3f::Identity() + dt * C) * ps.F[i];
+                    const float speed = ps.v[i].norm();
+                    // NaN compares false: make it win the reduction so the caller sees it.
+                    maxSpeed = speed == speed ? std::max(maxSpeed, speed)
+                                              : std::numeric_limits<float>::quiet_NaN();
+                    if (maxSpeed != maxSpeed) return maxSpeed;
+                }
+            }
+            return maxSpeed;
+        },
+        [](float a, float b) { return (a != a || b != b) ? a + b : std::max(a, b); });
+}
+
+template <int Dim>
+VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& scratch)
+{
+    scatterLeaves<Dim, 5, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value,
+                                                            Mat3f&) {
+        const float m = ps.mass[i];
+        value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+        value[3] = m * ps.v[i][2];
+        value[4] = (ps.plastic[i].flags & kFlagFailed) ? m : 0.f;
+    });
+    VolumeFrame vf;
+    vf.voxelSize = ps.dx;
+    const std::size_t nb = grid.blockCount();
+    vf.origin.resize(nb);
+    vf.density.assign(nb * kLeafNodes, 0.f);
+    vf.velocity.assign(nb * kLeafNodes, {0.f, 0.f, 0.f});
+    vf.failed.assign(nb * kLeafNodes, 0.f);
+    const float cellVolume = Dim == 3 ? ps.dx * ps.dx * ps.dx : ps.dx * ps.dx;
+    mergeBlocks<Dim, 5>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+        const LeafKey& k = grid.blockKey(b);
+        vf.origin[b] = {k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim};
+        for (int n = 0; n < kLeafNodes; ++n) {
+            const float m = acc[5 * n];
+            if (m <= 0.f) continue;
+            const std::size_t at = b * kLeafNodes + n;
+            vf.density[at] = m / cellVolume;
+            vf.velocity[at] = {acc[5 * n + 1] / m, acc[5 * n + 2] / m, acc[5 * n + 3] / m};
+            vf.failed[at] = std::min(1.f, acc[5 * n + 4] / m);
+        }
+    });
+    return vf;
+}
+
+} // namespace
+
+void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
+                     TransferScratch& scratch)
+{
+    if (params.dim == 2) return p2g<2>(particles, grid, params, scratch);
+    p2g<3>(particles, grid, params, scratch);
+}
+
+float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params)
+{
+    const bool flip = params.transfer == Transfer::Flip;
+    if (params.dim == 2) return flip ? g2p<2, true>(particles, grid, params)
+                                     : g2p<2, false>(particles, grid, params);
+    return flip ? g2p<3, true>(particles, grid, params) : g2p<3, false>(particles, grid, params);
+}
+
+VolumeFrame rasterizeVolumes(const ParticleSet& particles, const Grid& grid,
+                             TransferScratch& scratch)
+{
+    if (particles.dim == 2) return rasterize<2>(particles, grid, scratch);
+    return rasterize<3>(particles, grid, scratch);
+}
+
+} // namespace firn

@@ -1,0 +1,459 @@
+// Scene parsing: every field of a full 2D and 3D scene, then one test per class of error with
+// its exact message, line and column included (as Mitsuba's parser tests do).
+#include <firn/scene.h>
+
+#include <catch2/catch.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+using namespace firn;
+
+namespace {
+
+const char* const kPath = "scenes/test.toml";
+
+// The message parseScene throws for `text`, or "no error".
+std::string errorOf(const std::string& text, const std::vector<std::string>& overrides = {}) {
+    try {
+        parseScene(text, kPath, overrides);
+    } catch (const SceneError& e) {
+        return e.what();
+    }
+    return "no error";
+}
+
+// A small valid 3D scene that error tests append to or override.
+const std::string kMinimal = R"([simulation]
+name = "mini"
+
+[grid]
+dx = 0.1
+
+[[material]]
+name = "slab"
+model = "snow"
+
+[[body]]
+material = "slab"
+shape = "box"
+min = [0, 0, 0]
+max = [1, 1, 1]
+)";
+
+const std::string kFull3d = R"(# every key of the format
+[simulation]
+name = "full"
+dimension = 3
+end_time = 2.5
+frame_rate = 30
+gravity = [0.5, -9.0, 0.25]
+seed = 42
+
+[grid]
+dx = 0.04
+particles_per_cell = 27
+transfer = "flip"
+flip_blend = 0.9
+cfl = 0.5
+max_dt = 2e-4
+jitter = 0.25
+
+[[material]]
+name = "slab"
+model = "snow"
+density = 300
+youngs_modulus = 2.0e6
+poisson_ratio = 0.25
+critical_state_slope = 1.1
+cohesion_ratio = 0.4
+initial_p0 = 3.0e4
+hardening = 6
+
+[[material]]
+name = "weak"
+model = "weak_layer"
+density = 150
+softening = 0.5
+dynamic_critical_state_slope = 0.9
+
+[[material]]
+name = "sand"
+model = "granular"
+friction_angle = 35
+
+[[material]]
+name = "block"
+model = "elastic"
+youngs_modulus = 5e7
+
+[[terrain]]
+shape = "plane"
+point = [0, 1, 0]
+normal = [0, 3, 4]
+boundary = "slip"
+
+[[terrain]]
+shape = "profile"
+points = [[0.0, 13.0], [10, 5.0], [25.0, 0.0]]
+friction = 0.6
+
+[[terrain]]
+shape = "heightfield"
+file = "dem.asc"
+boundary = "sticky"
+
+[[body]]
+name = "base"
+material = "weak"
+shape = "layer"
+thickness = 0.1
+x_range = [0, 20]
+z_range = [-2, 2]
+
+[[body]]
+material = "slab"
+shape = "layer"
+on_top_of = "base"
+thickness = 0.5
+x_range = [1, 19]
+z_range = [-1, 1]
+thickness_noise = { std = 0.1, correlation_length = 5 }
+
+[[body]]
+material = "block"
+shape = "box"
+min = [0, 0, 0]
+max = [1, 0.5, 1]
+velocity = [1, 0, -1]
+
+[[body]]
+material = "sand"
+shape = "sphere"
+center = [2, 3, 4]
+radius = 0.5
+
+[[cut]]
+layer = "base"
+from_x = 4.5
+length = 0.3
+
+[output]
+directory = "out/custom"
+particles = false
+volumes = ["density", "failed"]
+)";
+
+// A folder holding the heightfield that kFull3d names, relative to the scene.
+std::string sceneFolderWithDem() {
+    const auto folder = std::filesystem::temp_directory_path() / "firn_scene_test";
+    std::filesystem::create_directories(folder);
+    std::ofstream(folder / "dem.asc") << "ncols 2\nnrows 2\n";
+    return folder.string();
+}
+
+void checkVec(const Vec3d& actual, const Vec3d& expected) {
+    for (int i = 0; i < 3; ++i) CHECK(actual[i] == Approx(expected[i]));
+}
+
+} // namespace
+
+TEST_CASE("A full 3D scene fills every field", "[scene]") {
+    const std::string folder = sceneFolderWithDem();
+    const SceneDesc scene = parseScene(kFull3d, folder + "/test.toml");
+
+    CHECK(scene.path == folder + "/test.toml");
+    CHECK(scene.simulation.name == "full");
+    CHECK(scene.simulation.dimension == 3);
+    CHECK(scene.simulation.endTime == 2.5);
+    CHECK(scene.simulation.frameRate == 30.0);
+    checkVec(scene.simulation.gravity, {0.5, -9.0, 0.25});
+    CHECK(scene.simulation.seed == 42u);
+
+    CHECK(scene.grid.dx == 0.04);
+    CHECK(scene.grid.particlesPerCell == 27);
+    CHECK(scene.grid.transfer == Transfer::Flip);
+    CHECK(scene.grid.flipBlend == 0.9);
+    CHECK(scene.grid.cfl == 0.5);
+    CHECK(scene.grid.maxDt == 2e-4);
+    CHECK(scene.grid.jitter == 0.25);
+
+    REQUIRE(scene.materials.size() == 4);
+    const MaterialDesc& slab = scene.materials[0];
+    CHECK(slab.name == "slab");
+    CHECK(slab.model == MaterialModel::Snow);
+    CHECK(slab.density == 300.0);
+    CHECK(slab.youngsModulus == 2.0e6);
+    CHECK(slab.poissonRatio == 0.25);
+    CHECK(slab.criticalStateSlope == 1.1);
+    CHECK(slab.cohesionRatio == 0.4);
+    CHECK(slab.initialP0 == 3.0e4);
+    CHECK(slab.hardening == 6.0);
+    CHECK(slab.loc.file == folder + "/test.toml");
+    CHECK(slab.loc.line == 19);
+    CHECK(slab.loc.column == 1);
+    const MaterialDesc& weak = scene.materials[1];
+    CHECK(weak.model == MaterialModel::WeakLayer);
+    CHECK(weak.density == 150.0);
+    CHECK(weak.youngsModulus == 1.0e6); // default
+    CHECK(weak.softening == 0.5);
+    CHECK(weak.dynamicCriticalStateSlope == 0.9);
+    CHECK(weak.criticalStateSlope == 1.0); // default
+    CHECK(scene.materials[2].model == MaterialModel::Granular);
+    CHECK(scene.materials[2].frictionAngle == 35.0);
+    CHECK(scene.materials[3].model == MaterialModel::Elastic);
+    CHECK(scene.materials[3].youngsModulus == 5e7);
+    CHECK(scene.materials[3].poissonRatio == 0.3); // default
+
+    REQUIRE(scene.terrains.size() == 3);
+    const TerrainDesc& plane = scene.terrains[0];
+    CHECK(plane.shape == TerrainShape::Plane);
+    checkVec(plane.point, {0, 1, 0});
+    checkVec(plane.normal, {0, 0.6, 0.8}); // normalised on read
+    CHECK(plane.boundary == Boundary::Slip);
+    CHECK(plane.loc.line == 47);
+    const TerrainDesc& profile = scene.terrains[1];
+    CHECK(profile.shape == TerrainShape::Profile);
+    REQUIRE(profile.points.size() == 3);
+    CHECK(profile.points[1][0] == 10.0);
+    CHECK(profile.points[1][1] == 5.0);
+    CHECK(profile.points[2][0] == 25.0);
+    CHECK(profile.boundary == Boundary::Friction);
+    CHECK(profile.friction == 0.6);
+    const TerrainDesc& dem = scene.terrains[2];
+    CHECK(dem.shape == TerrainShape::Heightfield);
+    CHECK(dem.file == (std::filesystem::path(folder) / "dem.asc").string());
+    CHECK(dem.boundary == Boundary::Sticky);
+
+    REQUIRE(scene.bodies.size() == 4);
+    const BodyDesc& base = scene.bodies[0];
+    CHECK(base.name == "base");
+    CHECK(base.material == "weak");
+    CHECK(base.materialIndex == 1);
+    CHECK(base.shape == BodyShape::Layer);
+    CHECK(base.onTopOf == "ground");
+    CHECK(base.thickness == 0.1);
+    CHECK(base.xRange == std::array<double, 2>{0, 20});
+    CHECK(base.zRange == std::array<double, 2>{-2, 2});
+    CHECK(base.thicknessNoise.std == 0.0);
+    const BodyDesc& top = scene.bodies[1];
+    CHECK(top.name.empty());
+    CHECK(top.materialIndex == 0);
+    CHECK(top.onTopOf == "base");
+    CHECK(top.thickness == 0.5);
+    CHECK(top.thicknessNoise.std == 0.1);
+    CHECK(top.thicknessNoise.correlationLength == 5.0);
+    const BodyDesc& box = scene.bodies[2];
+    CHECK(box.shape == BodyShape::Box);
+    CHECK(box.materialIndex == 3);
+    checkVec(box.min, {0, 0, 0});
+    checkVec(box.max, {1, 0.5, 1});
+    checkVec(box.velocity, {1, 0, -1});
+    const BodyDesc& sphere = scene.bodies[3];
+    CHECK(sphere.shape == BodyShape::Sphere);
+    CHECK(sphere.materialIndex == 2);
+    checkVec(sphere.center, {2, 3, 4});
+    CHECK(sphere.radius == 0.5);
+    CHECK(sphere.loc.line == 87);
+
+    REQUIRE(scene.cuts.size() == 1);
+    CHECK(scene.cuts[0].layer == "base");
+    CHECK(scene.cuts[0].fromX == 4.5);
+    CHECK(scene.cuts[0].length == 0.3);
+
+    CHECK(scene.output.directory == "out/custom");
+    CHECK_FALSE(scene.output.particles);
+    CHECK(scene.output.volumes == std::vector<std::string>{"density", "failed"});
+
+    // The resolved text reads back as the same scene.
+    const SceneDesc again = parseScene(scene.resolvedToml, folder + "/again.toml");
+    CHECK(again.grid.dx == 0.04);
+    CHECK(again.bodies.size() == 4);
+}
+
+TEST_CASE("A 2D scene takes two-component vectors and defaults", "[scene]") {
+    const SceneDesc scene = parseScene(R"([simulation]
+name = "flat"
+dimension = 2
+
+[[material]]
+name = "slab"
+model = "snow"
+
+[[terrain]]
+shape = "plane"
+point = [0, 0]
+normal = [0, 2]
+
+[[body]]
+material = "slab"
+shape = "box"
+min = [0, 0]
+max = [2, 1]
+velocity = [3, 0]
+
+[[body]]
+name = "layer"
+material = "slab"
+shape = "layer"
+thickness = 0.2
+x_range = [0, 5]
+)",
+                                       kPath);
+    CHECK(scene.simulation.dimension == 2);
+    checkVec(scene.simulation.gravity, {0, -9.81, 0});
+    CHECK(scene.simulation.endTime == 1.0);
+    CHECK(scene.simulation.seed == 1u);
+    CHECK(scene.grid.dx == 0.05);
+    CHECK(scene.grid.particlesPerCell == 8);
+    CHECK(scene.grid.transfer == Transfer::Apic);
+    checkVec(scene.terrains[0].normal, {0, 1, 0});
+    CHECK(scene.terrains[0].friction == 0.4);
+    checkVec(scene.bodies[0].min, {0, 0, 0});
+    checkVec(scene.bodies[0].max, {2, 1, 0});
+    checkVec(scene.bodies[0].velocity, {3, 0, 0});
+    CHECK(scene.bodies[1].xRange == std::array<double, 2>{0, 5});
+    CHECK(scene.output.directory == "out/flat");
+    CHECK(scene.output.particles);
+    CHECK(scene.output.volumes == std::vector<std::string>{"density", "velocity"});
+}
+
+TEST_CASE("Enumerations print as the scene spells them", "[scene]") {
+    CHECK(std::string(toString(Transfer::Apic)) == "apic");
+    CHECK(std::string(toString(Transfer::Flip)) == "flip");
+    CHECK(std::string(toString(MaterialModel::WeakLayer)) == "weak_layer");
+    CHECK(std::string(toString(MaterialModel::Granular)) == "granular");
+}
+
+TEST_CASE("A TOML syntax error names its line and column", "[scene][errors]") {
+    CHECK(errorOf("[grid]\ndx = = 0.1\n") ==
+          "scenes/test.toml:2:6: error: syntax: Error while parsing value: could not "
+          "determine value type");
+}
+
+TEST_CASE("An unknown key is an error, with a suggestion", "[scene][errors]") {
+    CHECK(errorOf(kMinimal + "\n[output]\nparticles = true\nvolume = []\n") ==
+          "scenes/test.toml:19:1: error: output.volume: unknown key; did you mean 'volumes'?");
+    CHECK(errorOf("[grid]\ndx = 0.1\ndxx = 0.2\n") ==
+          "scenes/test.toml:3:1: error: grid.dxx: unknown key; did you mean 'dx'?");
+}
+
+TEST_CASE("An unknown table is an error", "[scene][errors]") {
+    CHECK(errorOf(kMinimal + "\n[gird]\ndx = 0.1\n") ==
+          "scenes/test.toml:17:2: error: gird: unknown table; did you mean 'grid'?");
+}
+
+TEST_CASE("A value of the wrong type is an error", "[scene][errors]") {
+    CHECK(errorOf("[grid]\ndx = \"fine\"\n") ==
+          "scenes/test.toml:2:6: error: grid.dx: must be a number, got string");
+    CHECK(errorOf("[grid]\nparticles_per_cell = 8.0\n") ==
+          "scenes/test.toml:2:22: error: grid.particles_per_cell: must be an integer, got float");
+}
+
+TEST_CASE("An out-of-range value is an error", "[scene][errors]") {
+    const std::string text = R"([simulation]
+name = "pst"
+
+[[material]]
+name = "slab"
+model = "snow"
+poisson_ratio = 0.7
+)";
+    CHECK(errorOf(text) == "scenes/test.toml:7:17: error: material \"slab\": poisson_ratio: "
+                           "must be in [0, 0.5), got 0.7");
+    CHECK(errorOf("[grid]\ncfl = 0\n") ==
+          "scenes/test.toml:2:7: error: grid.cfl: must be in (0, 10], got 0");
+    CHECK(errorOf("[output]\nvolumes = [\"density\", \"speed\"]\n") ==
+          "scenes/test.toml:2:23: error: output.volumes: entries must be one of \"density\", "
+          "\"velocity\", \"failed\", got \"speed\"");
+    CHECK(errorOf("[grid]\ntransfer = \"mls\"\n") ==
+          "scenes/test.toml:2:12: error: grid.transfer: must be one of \"apic\", \"pic\", "
+          "\"flip\", got \"mls\"");
+}
+
+TEST_CASE("A missing required key is reported at its table header", "[scene][errors]") {
+    CHECK(errorOf("[[material]]\nname = \"slab\"\n") ==
+          "scenes/test.toml:1:1: error: material \"slab\": model: missing required key");
+    CHECK(errorOf(kMinimal + "\n[[body]]\nmaterial = \"slab\"\nshape = \"sphere\"\nradius = 1\n") ==
+          "scenes/test.toml:17:1: error: body 2: center: missing required key for shape "
+          "\"sphere\"");
+}
+
+TEST_CASE("A body naming an undefined material is an error", "[scene][errors]") {
+    const std::string text = kMinimal + R"(
+[[material]]
+name = "weak"
+model = "weak_layer"
+
+[[body]]
+material = "slabb"
+shape = "sphere"
+)";
+    CHECK(errorOf(text) == "scenes/test.toml:22:12: error: body 2: material \"slabb\" is not "
+                           "defined (materials: slab, weak)");
+}
+
+TEST_CASE("A heightfield file must exist next to the scene", "[scene][errors]") {
+    CHECK(errorOf(kMinimal + "\n[[terrain]]\nshape = \"heightfield\"\nfile = \"missing.asc\"\n") ==
+          "scenes/test.toml:19:8: error: terrain 1: file: file not found: scenes/missing.asc");
+}
+
+TEST_CASE("An override naming an unknown key or table is an error", "[scene][errors]") {
+    CHECK(errorOf(kMinimal, {"grid.dxx=0.2"}) ==
+          "--set: error: grid.dxx: unknown key; did you mean 'dx'?");
+    CHECK(errorOf(kMinimal, {"solver.dx=0.2"}) == "--set: error: solver: unknown table");
+    CHECK(errorOf(kMinimal, {"material.slabb.density=100"}) ==
+          "--set: error: material.slabb.density: no [[material]] named \"slabb\" (named: slab)");
+    CHECK(errorOf(kMinimal, {"dx=0.2"}) == "--set: error: dx: expected <table>.<key>=<value> or "
+                                           "<material|body>.<name>.<key>=<value>");
+    CHECK(errorOf(kMinimal, {"grid.dx=-1"}) == "--set: error: grid.dx: must be > 0, got -1");
+}
+
+TEST_CASE("Overrides apply before validation and show in the resolved TOML", "[scene]") {
+    const SceneDesc scene =
+        parseScene(kMinimal, kPath,
+                   {"grid.dx=0.025", "grid.transfer=pic", "material.slab.density=180",
+                    "output.volumes=[\"failed\"]", "simulation.name = \"other\""});
+    CHECK(scene.grid.dx == 0.025);
+    CHECK(scene.grid.transfer == Transfer::Pic);
+    CHECK(scene.materials[0].density == 180.0);
+    CHECK(scene.output.volumes == std::vector<std::string>{"failed"});
+    CHECK(scene.output.directory == "out/other");
+    CHECK(scene.resolvedToml.find("dx = 0.025") != std::string::npos);
+    CHECK(scene.resolvedToml.find("transfer = 'pic'") != std::string::npos);
+    CHECK(parseScene(scene.resolvedToml, kPath).grid.dx == 0.025);
+}
+
+TEST_CASE("A 2D scene rejects a vector with three components", "[scene][errors]") {
+    const std::string text = R"([simulation]
+dimension = 2
+gravity = [0, -9.81, 0]
+)";
+    CHECK(errorOf(text) == "scenes/test.toml:3:11: error: simulation.gravity: must have 2 "
+                           "components in a 2D scene, got 3");
+}
+
+TEST_CASE("A key of another model or shape is an error", "[scene][errors]") {
+    CHECK(errorOf(kMinimal + "friction_angle = 30\n") ==
+          "scenes/test.toml:16:1: error: body 1: friction_angle: unknown key");
+    const std::string text = R"([[material]]
+name = "slab"
+model = "snow"
+friction_angle = 30
+)";
+    CHECK(errorOf(text) == "scenes/test.toml:4:1: error: material \"slab\": friction_angle: "
+                           "does not apply to model \"snow\"");
+    CHECK(errorOf(kMinimal + "radius = 2\n") ==
+          "scenes/test.toml:16:1: error: body 1: radius: does not apply to shape \"box\"");
+}
+
+TEST_CASE("loadScene reads a file and names one it cannot open", "[scene]") {
+    const std::string folder = sceneFolderWithDem();
+    const std::string path = folder + "/load.toml";
+    std::ofstream(path) << kMinimal;
+    const SceneDesc scene = loadScene(path, {"simulation.seed=7"});
+    CHECK(scene.path == path);
+    CHECK(scene.simulation.seed == 7u);
+    CHECK_THROWS_WITH(loadScene(folder + "/absent.toml"),
+                      folder + "/absent.toml: error: cannot open scene file");
+}
