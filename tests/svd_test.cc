@@ -25,32 +25,27 @@ namespace {
 constexpr double kRelTol = 1e-5;
 
 /// A uniformly distributed random rotation (a normalised Gaussian quaternion).
-Matrix3d randomRotation(std::mt19937& rng)
-{
+Matrix3d randomRotation(std::mt19937& rng) {
     std::normal_distribution<double> n(0.0, 1.0);
     return Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
 }
 
-Matrix3f withSingularValues(std::mt19937& rng, const Vector3d& s)
-{
+Matrix3f withSingularValues(std::mt19937& rng, const Vector3d& s) {
     return (randomRotation(rng) * s.asDiagonal() * randomRotation(rng).transpose()).cast<float>();
 }
 
 /// Reference singular values (descending, non-negative) of the float matrix, in double.
-Vector3d referenceSigma(const Matrix3f& F)
-{
+Vector3d referenceSigma(const Matrix3f& F) {
     return Eigen::JacobiSVD<Matrix3d>(F.cast<double>()).singularValues();
 }
 
-bool isRotation(const Matrix3f& R)
-{
+bool isRotation(const Matrix3f& R) {
     const Matrix3d Rd = R.cast<double>();
     return (Rd.transpose() * Rd - Matrix3d::Identity()).norm() <= kRelTol &&
            std::abs(Rd.determinant() - 1.0) <= kRelTol;
 }
 
-void checkSvd3(const Matrix3f& F)
-{
+void checkSvd3(const Matrix3f& F) {
     INFO("F =\n" << F);
     const Svd3 svd = svd3(F);
     INFO("U =\n" << svd.U << "\nsigma = " << svd.sigma.transpose() << "\nV =\n" << svd.V);
@@ -71,24 +66,26 @@ void checkSvd3(const Matrix3f& F)
     CHECK((R - F.cast<double>()).norm() <= kRelTol * std::max(double(F.norm()), 1e-30));
 }
 
-std::vector<Matrix3f> degenerateMatrices(std::mt19937& rng)
-{
+std::vector<Matrix3f> degenerateMatrices(std::mt19937& rng) {
     std::vector<Matrix3f> out;
     out.push_back(Matrix3f::Identity());
     out.push_back(Matrix3f::Zero());
-    out.push_back(-Matrix3f::Identity());                         // reflection, det -1
-    out.push_back(Vector3f(1.f, 1.f, -1.f).asDiagonal());         // reflection
-    out.push_back(Vector3f(2.f, 2.f, 2.f).asDiagonal());          // triple singular value
-    out.push_back(Vector3f(3.f, 1.f, 1.f).asDiagonal());          // double, lower
-    out.push_back(Vector3f(1.f, 1.f, 1e-7f).asDiagonal());        // diag with a tiny entry
-    out.push_back(Vector3f(1.f, 1e-7f, 1e-7f).asDiagonal());      // two tiny entries
-    out.push_back(Vector3f(1e-3f, 1.f, 5.f).asDiagonal());        // unsorted diagonal
-    out.push_back(Vector3f(0.f, 1.f, 0.f).asDiagonal());          // rank one
+    out.push_back(-Matrix3f::Identity());                    // reflection, det -1
+    out.push_back(Vector3f(1.f, 1.f, -1.f).asDiagonal());    // reflection
+    out.push_back(Vector3f(2.f, 2.f, 2.f).asDiagonal());     // triple singular value
+    out.push_back(Vector3f(3.f, 1.f, 1.f).asDiagonal());     // double, lower
+    out.push_back(Vector3f(1.f, 1.f, 1e-7f).asDiagonal());   // diag with a tiny entry
+    out.push_back(Vector3f(1.f, 1e-7f, 1e-7f).asDiagonal()); // two tiny entries
+    out.push_back(Vector3f(1e-3f, 1.f, 5.f).asDiagonal());   // unsorted diagonal
+    out.push_back(Vector3f(0.f, 1.f, 0.f).asDiagonal());     // rank one
     Matrix3f uvT = Vector3f(1.f, 2.f, 3.f) * Vector3f(-1.f, 0.5f, 2.f).transpose();
-    out.push_back(uvT);                                           // rank one, general
+    out.push_back(uvT); // rank one, general
     Matrix3f rank2;
-    rank2 << 1, 2, 3, 4, 5, 6, 7, 8, 9;                           // rank two
+    rank2 << 1, 2, 3, 4, 5, 6, 7, 8, 9; // rank two
     out.push_back(rank2);
+    Matrix3f big = rank2 + Matrix3f::Identity();
+    out.push_back(1e5f * big); // scale invariance
+    out.push_back(1e-5f * big);
     for (int k = 0; k < 50; ++k) {
         const Matrix3d flip = Vector3d(1.0, 1.0, -1.0).asDiagonal();
         out.push_back(withSingularValues(rng, Vector3d(2.0, 2.0, 0.5)));
@@ -109,8 +106,7 @@ std::vector<Matrix3f> degenerateMatrices(std::mt19937& rng)
 
 } // namespace
 
-TEST_CASE("svd3 matches JacobiSVD on random matrices", "[svd]")
-{
+TEST_CASE("svd3 matches JacobiSVD on random matrices", "[svd]") {
     std::mt19937 rng(12345);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
     for (int k = 0; k < 1000; ++k) {
@@ -120,8 +116,7 @@ TEST_CASE("svd3 matches JacobiSVD on random matrices", "[svd]")
     }
 }
 
-TEST_CASE("svd3 matches JacobiSVD on deformation gradients near the identity", "[svd]")
-{
+TEST_CASE("svd3 matches JacobiSVD on deformation gradients near the identity", "[svd]") {
     // The MPM regime: stretches within 1e-3 of 1. The stretches themselves must be accurate to
     // float resolution of F (~1e-7), since their logs (~1e-4) are the strains: 1e-6 absolute.
     std::mt19937 rng(7);
@@ -136,22 +131,19 @@ TEST_CASE("svd3 matches JacobiSVD on deformation gradients near the identity", "
     }
 }
 
-TEST_CASE("svd3 handles near-degenerate matrices", "[svd]")
-{
+TEST_CASE("svd3 handles near-degenerate matrices", "[svd]") {
     std::mt19937 rng(99);
     for (const Matrix3f& F : degenerateMatrices(rng)) checkSvd3(F);
 }
 
-TEST_CASE("svd3 of the identity is the identity", "[svd]")
-{
+TEST_CASE("svd3 of the identity is the identity", "[svd]") {
     // Exact up to float rounding of the double eigen-solver: 1e-6.
     const Svd3 svd = svd3(Matrix3f::Identity());
     CHECK((svd.sigma - Vector3f::Ones()).norm() <= 1e-6f);
     CHECK((svd.U * svd.V.transpose() - Matrix3f::Identity()).norm() <= 1e-6f);
 }
 
-TEST_CASE("leftStretch 3D agrees with svd3 and JacobiSVD", "[svd]")
-{
+TEST_CASE("leftStretch 3D agrees with svd3 and JacobiSVD", "[svd]") {
     std::mt19937 rng(2024);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
     std::vector<Matrix3f> cases = degenerateMatrices(rng);
@@ -175,18 +167,17 @@ TEST_CASE("leftStretch 3D agrees with svd3 and JacobiSVD", "[svd]")
     }
 }
 
-TEST_CASE("leftStretch 2D uses only the leading 2x2 block", "[svd]")
-{
+TEST_CASE("leftStretch 2D uses only the leading 2x2 block", "[svd]") {
     std::mt19937 rng(5);
     std::uniform_real_distribution<float> u(-1.f, 1.f);
     std::vector<Eigen::Matrix2f> cases;
     for (int k = 0; k < 1000; ++k) cases.push_back(Eigen::Matrix2f::Random());
     cases.push_back(Eigen::Matrix2f::Identity());
     cases.push_back(Eigen::Matrix2f::Zero());
-    cases.push_back(Eigen::Vector2f(2.f, 2.f).asDiagonal());     // repeated
-    cases.push_back(Eigen::Vector2f(1.f, 1e-7f).asDiagonal());   // nearly singular
-    cases.push_back(Eigen::Vector2f(1e-7f, 1.f).asDiagonal());   // unsorted
-    cases.push_back(Eigen::Vector2f(1.f, -1.f).asDiagonal());    // reflection
+    cases.push_back(Eigen::Vector2f(2.f, 2.f).asDiagonal());   // repeated
+    cases.push_back(Eigen::Vector2f(1.f, 1e-7f).asDiagonal()); // nearly singular
+    cases.push_back(Eigen::Vector2f(1e-7f, 1.f).asDiagonal()); // unsorted
+    cases.push_back(Eigen::Vector2f(1.f, -1.f).asDiagonal());  // reflection
     Eigen::Matrix2f shear;
     shear << 1.f, 1e-4f, 0.f, 1.f;
     cases.push_back(shear);

@@ -14,13 +14,12 @@ using namespace firn;
 namespace {
 
 // A free elastic body without gravity or terrain; `shape` is a body table's shape lines.
-std::unique_ptr<World> freeBody(int dim, const std::string& shape, const std::string& transfer)
-{
+std::unique_ptr<World> freeBody(int dim, const std::string& shape, const std::string& transfer) {
     const std::string vec0 = dim == 3 ? "[0.0, 0.0, 0.0]" : "[0.0, 0.0]";
     const std::string text = "[simulation]\nname = \"t\"\ndimension = " + std::to_string(dim) +
                              "\nend_time = 1.0\ngravity = " + vec0 +
-                             "\n[grid]\ndx = 0.1\nparticles_per_cell = " +
-                             (dim == 3 ? "8" : "4") + "\ntransfer = \"" + transfer +
+                             "\n[grid]\ndx = 0.1\nparticles_per_cell = " + (dim == 3 ? "8" : "4") +
+                             "\ntransfer = \"" + transfer +
                              "\"\ncfl = 0.3\n"
                              "[[material]]\nname = \"e\"\nmodel = \"elastic\"\ndensity = 100.0\n"
                              "youngs_modulus = 1.0e4\npoisson_ratio = 0.3\n"
@@ -29,8 +28,7 @@ std::unique_ptr<World> freeBody(int dim, const std::string& shape, const std::st
     return buildWorld(test::sceneFromText(text));
 }
 
-Eigen::Vector3d totalMomentum(const ParticleSet& ps)
-{
+Eigen::Vector3d totalMomentum(const ParticleSet& ps) {
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i < ps.size(); ++i) p += double(ps.mass[i]) * ps.v[i].cast<double>();
     return p;
@@ -39,8 +37,7 @@ Eigen::Vector3d totalMomentum(const ParticleSet& ps)
 // Angular momentum about the origin including the APIC affine part: for the affine field
 // v + C (x - x_p) over a particle's mass with second moment D = dx^2/4 I (quadratic B-splines),
 // L_affine = m D (C_zy - C_yz, C_xz - C_zx, C_yx - C_xy) (Jiang et al. 2015, sec. 5.3).
-Eigen::Vector3d angularMomentum(const ParticleSet& ps)
-{
+Eigen::Vector3d angularMomentum(const ParticleSet& ps) {
     const double d = 0.25 * double(ps.dx) * ps.dx;
     Eigen::Vector3d L = Eigen::Vector3d::Zero();
     for (std::size_t i = 0; i < ps.size(); ++i) {
@@ -54,8 +51,7 @@ Eigen::Vector3d angularMomentum(const ParticleSet& ps)
 
 } // namespace
 
-TEST_CASE("quadratic B-spline weights: partition of unity and linear reproduction", "[transfer]")
-{
+TEST_CASE("quadratic B-spline weights: partition of unity and linear reproduction", "[transfer]") {
     // Float arithmetic on O(1) weights: 1e-6 is a few ulps of the sum.
     std::mt19937 rng(7);
     std::uniform_real_distribution<float> u(-50.f, 50.f);
@@ -68,7 +64,8 @@ TEST_CASE("quadratic B-spline weights: partition of unity and linear reproductio
             for (int i = 0; i < 3; ++i)
                 for (int j = 0; j < 3; ++j)
                     for (int k = 0; k < (dim == 3 ? 3 : 1); ++k) {
-                        const double w = double(q[0].w[i]) * q[1].w[j] * (dim == 3 ? q[2].w[k] : 1.0);
+                        const double w =
+                            double(q[0].w[i]) * q[1].w[j] * (dim == 3 ? q[2].w[k] : 1.0);
                         sum += w;
                         first[0] += w * (q[0].base + i);
                         first[1] += w * (q[1].base + j);
@@ -84,11 +81,11 @@ TEST_CASE("quadratic B-spline weights: partition of unity and linear reproductio
     }
 }
 
-TEST_CASE("P2G conserves mass and linear momentum", "[transfer]")
-{
+TEST_CASE("P2G conserves mass and linear momentum", "[transfer]") {
     for (int dim = 2; dim <= 3; ++dim) {
-        const std::string shape = dim == 3 ? "shape = \"sphere\"\ncenter = [0.3, 0.2, -0.1]\nradius = 0.45\n"
-                                           : "shape = \"sphere\"\ncenter = [0.3, 0.2]\nradius = 0.45\n";
+        const std::string shape =
+            dim == 3 ? "shape = \"sphere\"\ncenter = [0.3, 0.2, -0.1]\nradius = 0.45\n"
+                     : "shape = \"sphere\"\ncenter = [0.3, 0.2]\nradius = 0.45\n";
         for (const char* transfer : {"apic", "pic", "flip"}) {
             auto world = freeBody(dim, shape, transfer);
             ParticleSet& ps = world->particles;
@@ -98,7 +95,8 @@ TEST_CASE("P2G conserves mass and linear momentum", "[transfer]")
                 ps.v[i] = Vec3f(n01(rng), n01(rng), dim == 3 ? n01(rng) : 0.f);
                 for (int a = 0; a < dim; ++a)
                     for (int b = 0; b < dim; ++b) ps.C[i](a, b) = n01(rng);
-                ps.tau[i] = Sym3f{n01(rng), n01(rng), dim == 3 ? n01(rng) : 0.f, n01(rng), 0.f, 0.f};
+                ps.tau[i] =
+                    Sym3f{n01(rng), n01(rng), dim == 3 ? n01(rng) : 0.f, n01(rng), 0.f, 0.f};
             }
             world->grid.rebuild(ps, world->transfer == Transfer::Flip ? 3 : 0);
             const TransferParams params{dim, world->dx, 1e-3f, world->transfer, 0.95f};
@@ -120,17 +118,16 @@ TEST_CASE("P2G conserves mass and linear momentum", "[transfer]")
             // Float sums over a few thousand terms: relative 1e-5 of the magnitudes involved.
             REQUIRE(gridMass == Approx(particleMass).epsilon(1e-5));
             const double scale = particleMass * 3.0;
-            for (int c = 0; c < 3; ++c)
-                REQUIRE(std::abs(gridMomentum[c] - p[c]) < 1e-5 * scale);
+            for (int c = 0; c < 3; ++c) REQUIRE(std::abs(gridMomentum[c] - p[c]) < 1e-5 * scale);
         }
     }
 }
 
-TEST_CASE("APIC transfers an affine velocity field exactly", "[transfer]")
-{
+TEST_CASE("APIC transfers an affine velocity field exactly", "[transfer]") {
     for (int dim = 2; dim <= 3; ++dim) {
-        const std::string shape = dim == 3 ? "shape = \"box\"\nmin = [-0.33, 0.1, 0.2]\nmax = [0.51, 0.77, 0.95]\n"
-                                           : "shape = \"box\"\nmin = [-0.33, 0.1]\nmax = [0.51, 0.77]\n";
+        const std::string shape =
+            dim == 3 ? "shape = \"box\"\nmin = [-0.33, 0.1, 0.2]\nmax = [0.51, 0.77, 0.95]\n"
+                     : "shape = \"box\"\nmin = [-0.33, 0.1]\nmax = [0.51, 0.77]\n";
         auto world = freeBody(dim, shape, "apic");
         ParticleSet& ps = world->particles;
         Mat3f A = Mat3f::Zero();
@@ -153,11 +150,11 @@ TEST_CASE("APIC transfers an affine velocity field exactly", "[transfer]")
 }
 
 TEST_CASE("APIC conserves the angular momentum of a spinning free body; PIC loses it",
-          "[transfer]")
-{
+          "[transfer]") {
     for (int dim = 2; dim <= 3; ++dim) {
-        const std::string shape = dim == 3 ? "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.4\n"
-                                           : "shape = \"sphere\"\ncenter = [0.0, 0.0]\nradius = 0.4\n";
+        const std::string shape =
+            dim == 3 ? "shape = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 0.4\n"
+                     : "shape = \"sphere\"\ncenter = [0.0, 0.0]\nradius = 0.4\n";
         double lostFraction[2] = {0, 0};
         int t = 0;
         for (const char* transfer : {"apic", "pic"}) {

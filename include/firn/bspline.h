@@ -10,12 +10,11 @@ namespace firn {
 /// sum_i w_i (base + i) = xg.
 struct QuadraticWeights {
     int base;
-    float fx;   ///< xg - base, in [0.5, 1.5)
+    float fx; ///< xg - base, in [0.5, 1.5)
     float w[3];
 };
 
-inline QuadraticWeights quadraticWeights(float xg)
-{
+inline QuadraticWeights quadraticWeights(float xg) {
     QuadraticWeights q;
     q.base = static_cast<int>(std::floor(xg - 0.5f));
     q.fx = xg - static_cast<float>(q.base);
@@ -28,6 +27,8 @@ inline QuadraticWeights quadraticWeights(float xg)
 
 /// For quadratic B-splines the APIC inertia-like tensor is D = dx^2 / 4 I (Jiang et al. 2015),
 /// so C = B D^-1 = 4 / dx^2 B.
-inline float apicInverseD(float invDx) { return 4.f * invDx * invDx; }
+inline float apicInverseD(float invDx) {
+    return 4.f * invDx * invDx;
+}
 
 } // namespace firn

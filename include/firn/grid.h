@@ -32,9 +32,9 @@ public:
 
     std::size_t blockCount() const;
     const LeafKey& blockKey(std::size_t b) const;
-    float* mass(std::size_t b);             ///< kLeafNodes floats (VDB FloatTree leaf buffer)
-    float* velocity(std::size_t b);         ///< 3 * kLeafNodes floats (VDB Vec3fTree leaf buffer)
-    float* aux(std::size_t b);              ///< auxChannels * kLeafNodes floats
+    float* mass(std::size_t b);     ///< kLeafNodes floats (VDB FloatTree leaf buffer)
+    float* velocity(std::size_t b); ///< 3 * kLeafNodes floats (VDB Vec3fTree leaf buffer)
+    float* aux(std::size_t b);      ///< auxChannels * kLeafNodes floats
     const float* mass(std::size_t b) const;
     const float* velocity(std::size_t b) const;
     const float* aux(std::size_t b) const;

@@ -36,7 +36,7 @@ struct VolumeFrame {
 /// Metadata stored on every grid of a frame.
 struct FrameInfo {
     int frame = 0;
-    double time = 0.0;      ///< simulated time, s
+    double time = 0.0; ///< simulated time, s
     double frameRate = 24.0;
 };
 
@@ -82,7 +82,7 @@ std::string formatNumber(double value);
 /// A flat JSON object writer for summary.json: keys in insertion order.
 class JsonObject {
 public:
-    void set(const std::string& key, double value);   ///< non-finite written as null
+    void set(const std::string& key, double value); ///< non-finite written as null
     void set(const std::string& key, long long value);
     void set(const std::string& key, int value) { set(key, static_cast<long long>(value)); }
     void set(const std::string& key, const std::string& value);

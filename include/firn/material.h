@@ -29,8 +29,8 @@ struct PlasticState {
     /// that gives p0 = initial_p0). Weak layer: eta while cohesive, then eps_V^P counted from
     /// the moment of full softening. Granular and elastic: unused.
     float hardening = 0.f;
-    float epsV = 0.f;      ///< plastic volumetric strain since t = 0 (output `eps_v`)
-    float eta = 0.f;       ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
+    float epsV = 0.f; ///< plastic volumetric strain since t = 0 (output `eps_v`)
+    float eta = 0.f;  ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
     std::uint32_t flags = 0;
 };
 constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once
@@ -38,18 +38,18 @@ constexpr std::uint32_t kFlagCollapsed = 2u; ///< weak layer fully softened (p0 
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
 struct CamClayParams {
-    float M = 1.f;        ///< critical state slope
-    float beta = 0.3f;    ///< cohesion ratio: tensile strength beta * p0
-    float xi = 5.f;       ///< hardening factor in p0 = K sinh(xi max(-eps, 0))
-    float alpha = 1.f;    ///< weak layer softening factor
-    float Md = 1.2f;      ///< weak layer slope after full softening (eq. 5)
+    float M = 1.f;            ///< critical state slope
+    float beta = 0.3f;        ///< cohesion ratio: tensile strength beta * p0
+    float xi = 5.f;           ///< hardening factor in p0 = K sinh(xi max(-eps, 0))
+    float alpha = 1.f;        ///< weak layer softening factor
+    float Md = 1.2f;          ///< weak layer slope after full softening (eq. 5)
     float p0Initial = 2.0e4f; ///< Pa
 };
 
 /// A material as the solver uses it: model, density, elasticity and plasticity parameters.
 struct Material {
     MaterialModel model = MaterialModel::Elastic;
-    float density = 0.f;  ///< kg/m^3
+    float density = 0.f; ///< kg/m^3
     Lame lame;
     CamClayParams camClay;
     float frictionAngleDeg = 30.f; ///< granular (Drucker-Prager)
@@ -83,8 +83,8 @@ float camClayYield(float p, float q, float p0, float M, float beta);
 float camClayP0(float K, float xi, float hardeningVariable);
 
 struct ReturnMapResult {
-    Vec3f eps;            ///< projected principal strains
-    PlasticState state;   ///< updated plastic state
+    Vec3f eps;          ///< projected principal strains
+    PlasticState state; ///< updated plastic state
 };
 
 /// Snow slab: non-associative cohesive Cam-Clay return mapping with hardening eq. (2).

@@ -24,8 +24,7 @@ constexpr int kLeafDim = 1 << kLeafLog2;
 /// Symmetric 3x3 matrix (Kirchhoff stress): xx, yy, zz, xy, xz, yz.
 struct Sym3f {
     float xx = 0.f, yy = 0.f, zz = 0.f, xy = 0.f, xz = 0.f, yz = 0.f;
-    Vec3f times(const Vec3f& a) const
-    {
+    Vec3f times(const Vec3f& a) const {
         return {xx * a[0] + xy * a[1] + xz * a[2], xy * a[0] + yy * a[1] + yz * a[2],
                 xz * a[0] + yz * a[1] + zz * a[2]};
     }
@@ -35,14 +34,14 @@ struct ParticleSet {
     int dim = 3;
     float dx = 0.05f;
 
-    std::vector<Vec3f> x;                 ///< position, m
-    std::vector<Vec3f> v;                 ///< velocity, m/s
-    std::vector<Mat3f> C;                 ///< APIC affine velocity gradient, 1/s
-    std::vector<Mat3f> F;                 ///< elastic deformation gradient
-    std::vector<Sym3f> tau;               ///< Kirchhoff stress after the last plasticity pass, Pa
-    std::vector<float> mass;              ///< kg (2D: per metre of depth)
-    std::vector<float> volume0;           ///< initial volume, m^3 (2D: m^2)
-    std::vector<std::int32_t> material;   ///< index into the world's materials
+    std::vector<Vec3f> x;               ///< position, m
+    std::vector<Vec3f> v;               ///< velocity, m/s
+    std::vector<Mat3f> C;               ///< APIC affine velocity gradient, 1/s
+    std::vector<Mat3f> F;               ///< elastic deformation gradient
+    std::vector<Sym3f> tau;             ///< Kirchhoff stress after the last plasticity pass, Pa
+    std::vector<float> mass;            ///< kg (2D: per metre of depth)
+    std::vector<float> volume0;         ///< initial volume, m^3 (2D: m^2)
+    std::vector<std::int32_t> material; ///< index into the world's materials
     std::vector<PlasticState> plastic;
 
     std::vector<LeafKey> leaves;          ///< sorted, unique, non-empty
@@ -61,8 +60,8 @@ struct ParticleSet {
     void bucketByLeaf();
 
 private:
-    std::vector<std::uint32_t> mOrder;     // scratch: gather order of the last bucketing
-    std::vector<unsigned char> mScratch;   // scratch: one attribute during the gather
+    std::vector<std::uint32_t> mOrder;   // scratch: gather order of the last bucketing
+    std::vector<unsigned char> mScratch; // scratch: one attribute during the gather
 };
 
 /// Block of the base node of a particle at x (quadratic B-spline stencil base).

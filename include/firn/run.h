@@ -9,9 +9,9 @@
 namespace firn {
 
 struct RunOptions {
-    int threads = 0;          ///< 0: all cores
-    std::string outDir;       ///< overrides output.directory when not empty
-    bool quiet = false;       ///< no progress output
+    int threads = 0;    ///< 0: all cores
+    std::string outDir; ///< overrides output.directory when not empty
+    bool quiet = false; ///< no progress output
 };
 
 struct RunResult {
@@ -19,7 +19,7 @@ struct RunResult {
     std::string message;       ///< why a run stopped early
     std::string outDir;
     long long steps = 0;
-    int frames = 0;            ///< frames written, including frame 0
+    int frames = 0; ///< frames written, including frame 0
     std::size_t particles = 0;
     double wallSeconds = 0;
 };

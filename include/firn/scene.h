@@ -22,48 +22,51 @@ enum class BodyShape { Box, Sphere, Layer };
 /// [simulation]
 struct SimulationDesc {
     std::string name = "scene";
-    int dimension = 3;                   ///< 2 (plane strain) or 3
-    double endTime = 1.0;                ///< s
-    double frameRate = 24.0;             ///< frames per simulated second
-    Vec3d gravity = {0.0, -9.81, 0.0};   ///< m/s^2; z is 0 in 2D
+    int dimension = 3;                 ///< 2 (plane strain) or 3
+    double endTime = 1.0;              ///< s
+    double frameRate = 24.0;           ///< frames per simulated second
+    Vec3d gravity = {0.0, -9.81, 0.0}; ///< m/s^2; z is 0 in 2D
     std::uint64_t seed = 1;
+    /// s: gravity grows linearly from 0 to full over this time, so that bodies seeded without
+    /// stress settle quasi-statically instead of bouncing (0: full gravity from the start).
+    double gravityRamp = 0.0;
 };
 
 /// [grid]
 struct GridDesc {
-    double dx = 0.05;                    ///< m
+    double dx = 0.05; ///< m
     int particlesPerCell = 8;
     Transfer transfer = Transfer::Apic;
-    double flipBlend = 0.95;             ///< FLIP fraction, only for Transfer::Flip
+    double flipBlend = 0.95; ///< FLIP fraction, only for Transfer::Flip
     double cfl = 0.4;
-    double maxDt = 1.0e-3;               ///< s
-    double jitter = 0.5;                 ///< fraction of a sub-cell by which seeds are jittered
+    double maxDt = 1.0e-3; ///< s
+    double jitter = 0.5;   ///< fraction of a sub-cell by which seeds are jittered
 };
 
 /// [[material]]; defaults are those of scene-format.md.
 struct MaterialDesc {
     std::string name;
     MaterialModel model = MaterialModel::Elastic;
-    double density = 250.0;              ///< kg/m^3
-    double youngsModulus = 1.0e6;        ///< Pa
+    double density = 250.0;       ///< kg/m^3
+    double youngsModulus = 1.0e6; ///< Pa
     double poissonRatio = 0.3;
-    double criticalStateSlope = 1.0;     ///< M
-    double cohesionRatio = 0.3;          ///< beta
-    double initialP0 = 2.0e4;            ///< Pa
-    double hardening = 5.0;              ///< xi
-    double softening = 1.0;              ///< alpha (weak layer)
+    double criticalStateSlope = 1.0;        ///< M
+    double cohesionRatio = 0.3;             ///< beta
+    double initialP0 = 2.0e4;               ///< Pa
+    double hardening = 5.0;                 ///< xi
+    double softening = 1.0;                 ///< alpha (weak layer)
     double dynamicCriticalStateSlope = 1.2; ///< M_d (weak layer)
-    double frictionAngle = 30.0;         ///< degrees (granular)
+    double frictionAngle = 30.0;            ///< degrees (granular)
     SourceLoc loc;
 };
 
 /// [[terrain]]
 struct TerrainDesc {
     TerrainShape shape = TerrainShape::Plane;
-    Vec3d point = {0.0, 0.0, 0.0};       ///< plane
-    Vec3d normal = {0.0, 1.0, 0.0};      ///< plane, normalised on read
+    Vec3d point = {0.0, 0.0, 0.0};             ///< plane
+    Vec3d normal = {0.0, 1.0, 0.0};            ///< plane, normalised on read
     std::vector<std::array<double, 2>> points; ///< profile: (x, y), x strictly increasing
-    std::string file;                    ///< heightfield: path resolved against the scene's folder
+    std::string file; ///< heightfield: path resolved against the scene's folder
     Boundary boundary = Boundary::Friction;
     double friction = 0.4;
     SourceLoc loc;
@@ -71,22 +74,22 @@ struct TerrainDesc {
 
 /// thickness_noise = { std, correlation_length } of a layer body.
 struct LayerNoiseDesc {
-    double std = 0.0;                    ///< fraction of the thickness
-    double correlationLength = 10.0;     ///< m
+    double std = 0.0;                ///< fraction of the thickness
+    double correlationLength = 10.0; ///< m
 };
 
 /// [[body]]
 struct BodyDesc {
-    std::string name;                    ///< optional, so that a layer can sit on it
+    std::string name; ///< optional, so that a layer can sit on it
     std::string material;
-    int materialIndex = -1;              ///< resolved index into SceneDesc::materials
+    int materialIndex = -1; ///< resolved index into SceneDesc::materials
     BodyShape shape = BodyShape::Box;
     Vec3d min = {0, 0, 0}, max = {0, 0, 0}; ///< box
-    Vec3d center = {0, 0, 0};            ///< sphere
-    double radius = 0.0;                 ///< sphere
-    Vec3d velocity = {0, 0, 0};          ///< m/s
-    std::string onTopOf = "ground";      ///< layer: "ground" or the name of another layer body
-    double thickness = 0.0;              ///< layer, m, normal to the ground
+    Vec3d center = {0, 0, 0};               ///< sphere
+    double radius = 0.0;                    ///< sphere
+    Vec3d velocity = {0, 0, 0};             ///< m/s
+    std::string onTopOf = "ground";         ///< layer: "ground" or the name of another layer body
+    double thickness = 0.0;                 ///< layer, m, normal to the ground
     std::array<double, 2> xRange = {0, 0};
     std::array<double, 2> zRange = {0, 0};
     LayerNoiseDesc thicknessNoise;
@@ -95,21 +98,21 @@ struct BodyDesc {
 
 /// [[cut]]: a saw cut, a region of a named layer body removed at t = 0.
 struct CutDesc {
-    std::string layer;                   ///< name of a layer body
-    double fromX = 0.0;                  ///< m
-    double length = 0.0;                 ///< m, along x
+    std::string layer;   ///< name of a layer body
+    double fromX = 0.0;  ///< m
+    double length = 0.0; ///< m, along x
     SourceLoc loc;
 };
 
 /// [output]
 struct OutputDesc {
-    std::string directory;               ///< default out/<name>
+    std::string directory; ///< default out/<name>
     bool particles = true;
     std::vector<std::string> volumes = {"density", "velocity"}; ///< of density, velocity, failed
 };
 
 struct SceneDesc {
-    std::string path;                    ///< the scene file as given
+    std::string path; ///< the scene file as given
     SimulationDesc simulation;
     GridDesc grid;
     std::vector<MaterialDesc> materials;
@@ -117,7 +120,7 @@ struct SceneDesc {
     std::vector<BodyDesc> bodies;
     std::vector<CutDesc> cuts;
     OutputDesc output;
-    std::string resolvedToml;            ///< the scene as run, overrides applied, as TOML text
+    std::string resolvedToml; ///< the scene as run, overrides applied, as TOML text
 };
 
 /// Parses and validates a scene file. `overrides` are "key.path=value" strings (from --set)

@@ -22,6 +22,7 @@ struct World {
     float cfl = 0.4f;
     float maxDt = 1e-3f;
     Vec3f gravity = Vec3f(0.f, -9.81f, 0.f);
+    float gravityRamp = 0.f; ///< s, see SimulationDesc::gravityRamp
 
     std::vector<Material> materials;
     std::vector<Collider> colliders;
@@ -29,7 +30,7 @@ struct World {
     Grid grid;
     TransferScratch scratch;
 
-    double time = 0.0;        ///< s
+    double time = 0.0; ///< s
     long long steps = 0;
     float maxSpeed = 0.f;     ///< largest particle speed after the last step, m/s
     float maxWaveSpeed = 0.f; ///< largest P-wave speed over the materials in use, m/s

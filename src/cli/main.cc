@@ -60,14 +60,12 @@ struct Command {
     bool help = false;
 };
 
-std::string needValue(int& i, int argc, char** argv)
-{
+std::string needValue(int& i, int argc, char** argv) {
     if (i + 1 >= argc) throw UsageError{std::string(argv[i]) + " needs a value"};
     return argv[++i];
 }
 
-int parseThreads(const std::string& text)
-{
+int parseThreads(const std::string& text) {
     try {
         std::size_t used = 0;
         const int n = std::stoi(text, &used);
@@ -77,27 +75,33 @@ int parseThreads(const std::string& text)
     throw UsageError{"--threads must be a positive integer, got '" + text + "'"};
 }
 
-Command parseCommand(int argc, char** argv)
-{
+Command parseCommand(int argc, char** argv) {
     Command c;
     c.name = argv[1];
     for (int i = 2; i < argc; ++i) {
         const std::string a = argv[i];
-        if (a == "-h" || a == "--help") c.help = true;
-        else if (a == "--set") c.overrides.push_back(needValue(i, argc, argv));
-        else if (a == "--threads" && c.name == "run") c.run.threads = parseThreads(needValue(i, argc, argv));
-        else if (a == "--out" && c.name == "run") c.run.outDir = needValue(i, argc, argv);
-        else if (a == "--quiet" && c.name == "run") c.run.quiet = true;
-        else if (!a.empty() && a[0] == '-') throw UsageError{"unknown option '" + a + "' for firn " + c.name};
-        else if (c.scene.empty()) c.scene = a;
-        else throw UsageError{"one scene file only, got '" + c.scene + "' and '" + a + "'"};
+        if (a == "-h" || a == "--help")
+            c.help = true;
+        else if (a == "--set")
+            c.overrides.push_back(needValue(i, argc, argv));
+        else if (a == "--threads" && c.name == "run")
+            c.run.threads = parseThreads(needValue(i, argc, argv));
+        else if (a == "--out" && c.name == "run")
+            c.run.outDir = needValue(i, argc, argv);
+        else if (a == "--quiet" && c.name == "run")
+            c.run.quiet = true;
+        else if (!a.empty() && a[0] == '-')
+            throw UsageError{"unknown option '" + a + "' for firn " + c.name};
+        else if (c.scene.empty())
+            c.scene = a;
+        else
+            throw UsageError{"one scene file only, got '" + c.scene + "' and '" + a + "'"};
     }
     if (!c.help && c.scene.empty()) throw UsageError{"firn " + c.name + " needs a scene file"};
     return c;
 }
 
-int runCommand(const Command& c)
-{
+int runCommand(const Command& c) {
     const firn::SceneDesc scene = firn::loadScene(c.scene, c.overrides);
     if (c.name == "check") {
         std::fputs(firn::describeScene(scene).c_str(), stdout);
@@ -121,8 +125,7 @@ int runCommand(const Command& c)
 
 } // namespace
 
-int main(int argc, char** argv)
-{
+int main(int argc, char** argv) {
     if (argc < 2 || !std::strcmp(argv[1], "--help") || !std::strcmp(argv[1], "-h")) {
         std::fputs(kUsage, argc < 2 ? stderr : stdout);
         return argc < 2 ? 1 : 0;

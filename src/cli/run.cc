@@ -21,20 +21,20 @@ namespace firn {
 namespace {
 
 volatile std::sig_atomic_t gStopSignal = 0;
-extern "C" void onStopSignal(int sig) { gStopSignal = sig; }
+extern "C" void onStopSignal(int sig) {
+    gStopSignal = sig;
+}
 
 /// Installs SIGINT/SIGTERM handlers for the duration of a run: the loop then stops after the
 /// current step, so no frame file is left half written and the summary says "interrupted".
 class SignalGuard {
 public:
-    SignalGuard()
-    {
+    SignalGuard() {
         gStopSignal = 0;
         mOldInt = std::signal(SIGINT, onStopSignal);
         mOldTerm = std::signal(SIGTERM, onStopSignal);
     }
-    ~SignalGuard()
-    {
+    ~SignalGuard() {
         std::signal(SIGINT, mOldInt);
         std::signal(SIGTERM, mOldTerm);
     }
@@ -45,13 +45,11 @@ private:
 };
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0)
-{
+double secondsSince(Clock::time_point t0) {
     return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-std::size_t peakRssBytes()
-{
+std::size_t peakRssBytes() {
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
     return std::size_t(usage.ru_maxrss) * 1024;
@@ -63,11 +61,8 @@ public:
     Progress(bool quiet, int frames)
         : mQuiet(quiet)
         , mTty(isatty(fileno(stderr)))
-        , mFrames(frames)
-    {
-    }
-    void frame(int k, double time, std::size_t particles, long long steps, double wall)
-    {
+        , mFrames(frames) {}
+    void frame(int k, double time, std::size_t particles, long long steps, double wall) {
         if (mQuiet) return;
         const double stepsPerSecond = wall > 0 ? steps / wall : 0.0;
         const double eta = k > 0 ? wall * (mFrames - k) / k : 0.0;
@@ -76,8 +71,7 @@ public:
                      mTty ? "" : "\n");
         std::fflush(stderr);
     }
-    void done()
-    {
+    void done() {
         if (!mQuiet && mTty) std::fprintf(stderr, "\n");
     }
 
@@ -89,8 +83,7 @@ private:
 /// Crack tip and speed from the extent of eta > 0 along x (outputs.md: crack_tip_x, crack_speed).
 class CrackTracker {
 public:
-    void update(const FrameDiagnostics& d, double time)
-    {
+    void update(const FrameDiagnostics& d, double time) {
         mSpeed = std::nan("");
         if (std::isnan(d.crackMinX)) return;
         if (std::isnan(mMinX)) {
@@ -124,12 +117,9 @@ public:
     explicit StabilityWatch(const FrameDiagnostics& d0, const World& w)
         : mE0(d0.totalEnergy())
         , mBudget(d0.kineticEnergy + d0.elasticEnergy + d0.mass * w.gravity.norm() * w.dx)
-        , mGravity0(d0.gravitationalEnergy)
-    {
-    }
+        , mGravity0(d0.gravitationalEnergy) {}
     /// Empty when fine, else a sentence saying what went wrong and where.
-    std::string check(const FrameDiagnostics& d, const World& w) const
-    {
+    std::string check(const FrameDiagnostics& d, const World& w) const {
         std::ostringstream why;
         const auto& p = d.worstPosition;
         if (!d.finite) {
@@ -138,8 +128,8 @@ public:
             const double released = std::max(0.0, mGravity0 - d.gravitationalEnergy);
             const double gain = d.totalEnergy() - mE0;
             if (gain <= mBudget + released) return "";
-            why << "energy grew by " << gain << " J without a source (budget "
-                << mBudget + released << " J)";
+            why << "energy grew by " << gain << " J without a source (budget " << mBudget + released
+                << " J)";
         }
         why << " at t = " << w.time << " s, step " << w.steps << ", near x = (" << p[0] << ", "
             << p[1] << ", " << p[2] << ") m";
@@ -151,20 +141,38 @@ private:
     double mE0, mBudget, mGravity0;
 };
 
-const std::vector<std::string> kMetricColumns = {
-    "frame", "time", "steps", "dt", "particles", "active_voxels", "mass", "com_x", "com_y",
-    "com_z", "momentum_x", "momentum_y", "momentum_z", "kinetic_energy", "max_speed", "front_x",
-    "crack_tip_x", "crack_speed", "failed_fraction", "wall_seconds", "elastic_energy",
-    "gravitational_energy", "energy_drift", "crack_tip_min_x", "crack_tip_max_x"};
+const std::vector<std::string> kMetricColumns = {"frame",
+                                                 "time",
+                                                 "steps",
+                                                 "dt",
+                                                 "particles",
+                                                 "active_voxels",
+                                                 "mass",
+                                                 "com_x",
+                                                 "com_y",
+                                                 "com_z",
+                                                 "momentum_x",
+                                                 "momentum_y",
+                                                 "momentum_z",
+                                                 "kinetic_energy",
+                                                 "max_speed",
+                                                 "front_x",
+                                                 "crack_tip_x",
+                                                 "crack_speed",
+                                                 "failed_fraction",
+                                                 "wall_seconds",
+                                                 "elastic_energy",
+                                                 "gravitational_energy",
+                                                 "energy_drift",
+                                                 "crack_tip_min_x",
+                                                 "crack_tip_max_x"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
         : scene(sc)
         , world(w)
         , framesDir(outDir + "/frames")
-        , metrics(outDir + "/metrics.csv", kMetricColumns)
-    {
-    }
+        , metrics(outDir + "/metrics.csv", kMetricColumns) {}
     const SceneDesc& scene;
     World& world;
     std::string framesDir;
@@ -176,11 +184,12 @@ struct RunState {
     Clock::time_point start = Clock::now();
 };
 
-std::string cell(double v) { return formatNumber(v); }
+std::string cell(double v) {
+    return formatNumber(v);
+}
 
 /// Writes frame k: particle and volume caches and the metrics row.
-FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch)
-{
+FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch) {
     World& w = s.world;
     const FrameDiagnostics d = computeDiagnostics(w);
     const FrameInfo info{k, w.time, s.scene.simulation.frameRate};
@@ -194,22 +203,36 @@ FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch)
     s.crack.update(d, w.time);
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
     const double nan = std::nan("");
-    s.metrics.appendRow({std::to_string(k), cell(w.time), std::to_string(w.steps), cell(s.lastDt),
-                         std::to_string(d.particles), std::to_string(activeVoxels), cell(d.mass),
-                         cell(d.centreOfMass[0]), cell(d.centreOfMass[1]), cell(d.centreOfMass[2]),
-                         cell(d.momentum[0]), cell(d.momentum[1]), cell(d.momentum[2]),
-                         cell(d.kineticEnergy), cell(d.maxSpeed), cell(d.frontX),
+    s.metrics.appendRow({std::to_string(k),
+                         cell(w.time),
+                         std::to_string(w.steps),
+                         cell(s.lastDt),
+                         std::to_string(d.particles),
+                         std::to_string(activeVoxels),
+                         cell(d.mass),
+                         cell(d.centreOfMass[0]),
+                         cell(d.centreOfMass[1]),
+                         cell(d.centreOfMass[2]),
+                         cell(d.momentum[0]),
+                         cell(d.momentum[1]),
+                         cell(d.momentum[2]),
+                         cell(d.kineticEnergy),
+                         cell(d.maxSpeed),
+                         cell(d.frontX),
                          cell(d.hasWeakLayer ? s.crack.tip() : nan),
-                         cell(d.hasWeakLayer ? s.crack.speed() : nan), cell(d.failedFraction),
-                         cell(secondsSince(s.start)), cell(d.elasticEnergy),
-                         cell(d.gravitationalEnergy), cell(watch ? watch->drift(d) : 0.0),
-                         cell(d.crackMinX), cell(d.crackMaxX)});
+                         cell(d.hasWeakLayer ? s.crack.speed() : nan),
+                         cell(d.failedFraction),
+                         cell(secondsSince(s.start)),
+                         cell(d.elasticEnergy),
+                         cell(d.gravitationalEnergy),
+                         cell(watch ? watch->drift(d) : 0.0),
+                         cell(d.crackMinX),
+                         cell(d.crackMaxX)});
     return d;
 }
 
 /// Highest point of the release to the farthest deposit point, from the horizontal.
-double alphaAngleDeg(const FrameDiagnostics& first, const World& w)
-{
+double alphaAngleDeg(const FrameDiagnostics& first, const World& w) {
     const ParticleSet& ps = w.particles;
     if (ps.size() == 0) return std::nan("");
     std::size_t far = 0;
@@ -221,8 +244,7 @@ double alphaAngleDeg(const FrameDiagnostics& first, const World& w)
     return std::atan2(drop, run) * 180.0 / M_PI;
 }
 
-void writeSummary(const RunState& s, const RunResult& r, int threads)
-{
+void writeSummary(const RunState& s, const RunResult& r, int threads) {
     const World& w = s.world;
     const std::size_t rss = peakRssBytes();
     const double wall = secondsSince(s.start);
@@ -235,7 +257,8 @@ void writeSummary(const RunState& s, const RunResult& r, int threads)
     j.set("end_time", w.time);
     j.set("wall_seconds", wall);
     j.set("threads", threads);
-    j.set("particle_steps_per_second", wall > 0 ? double(w.particles.size()) * w.steps / wall : 0.0);
+    j.set("particle_steps_per_second",
+          wall > 0 ? double(w.particles.size()) * w.steps / wall : 0.0);
     j.set("peak_rss_bytes", static_cast<long long>(rss));
     j.set("bytes_per_particle", w.particles.size() ? double(rss) / w.particles.size() : 0.0);
     j.set("mass_initial", s.first.mass);
@@ -255,8 +278,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads)
 
 } // namespace
 
-RunResult runScene(const SceneDesc& scene, const RunOptions& options)
-{
+RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     RunResult result;
@@ -266,8 +288,8 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options)
 
     std::unique_ptr<World> world = buildWorld(scene);
     RunState s(scene, *world, result.outDir);
-    const int frames = std::max(1, int(std::lround(scene.simulation.endTime *
-                                                   scene.simulation.frameRate)));
+    const int frames =
+        std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
     Progress progress(options.quiet, frames);
     SignalGuard signals;
 
@@ -292,8 +314,8 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options)
         const std::string why = watch.check(d, *world);
         if (!why.empty()) {
             result.status = "unstable";
-            result.message = "unstable: " + why + "; last good frame is " +
-                             std::to_string(result.frames - 1);
+            result.message =
+                "unstable: " + why + "; last good frame is " + std::to_string(result.frames - 1);
             break;
         }
         s.last = writeFrame(s, k, &watch);
@@ -309,8 +331,7 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options)
     return result;
 }
 
-std::string describeScene(const SceneDesc& scene)
-{
+std::string describeScene(const SceneDesc& scene) {
     std::unique_ptr<World> world = buildWorld(scene);
     std::ostringstream out;
     out << "scene " << scene.path << ": \"" << scene.simulation.name << "\", "

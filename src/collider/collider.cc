@@ -5,8 +5,7 @@
 
 namespace firn {
 
-Collider Collider::fromDesc(const TerrainDesc& desc, int dim)
-{
+Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     if (desc.shape == TerrainShape::Heightfield)
         throw SceneError(desc.loc, "terrain: shape",
                          "\"heightfield\" terrain needs the DEM reader, which this build lacks; "
@@ -26,8 +25,7 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim)
 
 // The polyline is extended past its ends along its first and last segments, so that the
 // ground never ends under a scene.
-void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const
-{
+void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const {
     const std::size_t ns = mProfile.size() - 1;
     float best = std::numeric_limits<float>::max();
     for (std::size_t s = 0; s < ns; ++s) {
@@ -43,8 +41,7 @@ void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float&
     sign = py >= heightAt(px, 0.f) ? 1.f : -1.f;
 }
 
-float Collider::heightAt(float xCoord, float zCoord) const
-{
+float Collider::heightAt(float xCoord, float zCoord) const {
     if (mShape == TerrainShape::Plane) {
         // n . (x - p) = 0 solved for y; a vertical plane has no height: report -inf.
         if (std::abs(mNormal[1]) < 1e-6f) return -std::numeric_limits<float>::infinity();
@@ -58,16 +55,14 @@ float Collider::heightAt(float xCoord, float zCoord) const
     return a[1] + (b[1] - a[1]) * (xCoord - a[0]) / (b[0] - a[0]);
 }
 
-float Collider::signedDistance(const Vec3f& x) const
-{
+float Collider::signedDistance(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal.dot(x - mPoint);
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
     return sign * std::sqrt((x[0] - cx) * (x[0] - cx) + (x[1] - cy) * (x[1] - cy));
 }
 
-Vec3f Collider::normal(const Vec3f& x) const
-{
+Vec3f Collider::normal(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal;
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
@@ -81,8 +76,7 @@ Vec3f Collider::normal(const Vec3f& x) const
     return Vec3f(-seg[1], seg[0], 0.f).normalized();
 }
 
-Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const
-{
+Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const {
     if (mBoundary == Boundary::Sticky) return Vec3f::Zero();
     const float vn = v.dot(n);
     if (vn >= 0.f) return v; // separating

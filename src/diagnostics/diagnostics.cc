@@ -14,8 +14,7 @@ namespace {
 constexpr double kMovingSpeed = 0.1; // m/s: outputs.md front_x threshold
 
 /// p = -tr(tau)/d and q = sqrt(3/2 s:s), s = tau + p I, over the d x d block (Gaume et al. 2019).
-StressInvariants invariantsOf(const Sym3f& t, int dim)
-{
+StressInvariants invariantsOf(const Sym3f& t, int dim) {
     const double p = -(dim == 3 ? t.xx + t.yy + t.zz : t.xx + t.yy) / dim;
     const double sxx = t.xx + p, syy = t.yy + p, szz = dim == 3 ? t.zz + p : 0.0;
     double ss = sxx * sxx + syy * syy + szz * szz + 2.0 * t.xy * t.xy;
@@ -23,8 +22,7 @@ StressInvariants invariantsOf(const Sym3f& t, int dim)
     return {float(p), float(std::sqrt(1.5 * ss))};
 }
 
-void merge(FrameDiagnostics& into, const FrameDiagnostics& d)
-{
+void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     into.particles += d.particles;
     into.mass += d.mass;
     into.centreOfMass += d.centreOfMass; // mass-weighted sum until the end
@@ -38,15 +36,18 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d)
     if (d.topY > into.topY) into.topY = d.topY, into.topX = d.topX;
     into.finite = into.finite && d.finite;
     into.hasWeakLayer = into.hasWeakLayer || d.hasWeakLayer;
-    auto fmaxNan = [](double a, double b) { return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b); };
-    auto fminNan = [](double a, double b) { return std::isnan(a) ? b : std::isnan(b) ? a : std::min(a, b); };
+    auto fmaxNan = [](double a, double b) {
+        return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b);
+    };
+    auto fminNan = [](double a, double b) {
+        return std::isnan(a) ? b : std::isnan(b) ? a : std::min(a, b);
+    };
     into.frontX = fmaxNan(into.frontX, d.frontX);
     into.crackMinX = fminNan(into.crackMinX, d.crackMinX);
     into.crackMaxX = fmaxNan(into.crackMaxX, d.crackMaxX);
 }
 
-FrameDiagnostics leafDiagnostics(const World& world, std::size_t l)
-{
+FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
     const ParticleSet& ps = world.particles;
     FrameDiagnostics d;
     d.topY = -std::numeric_limits<double>::infinity();
@@ -88,8 +89,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l)
 
 } // namespace
 
-FrameDiagnostics computeDiagnostics(const World& world)
-{
+FrameDiagnostics computeDiagnostics(const World& world) {
     const ParticleSet& ps = world.particles;
     std::vector<FrameDiagnostics> perLeaf(ps.leafCount());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
@@ -105,8 +105,7 @@ FrameDiagnostics computeDiagnostics(const World& world)
     return total;
 }
 
-ParticleFrame exportParticles(const World& world)
-{
+ParticleFrame exportParticles(const World& world) {
     const ParticleSet& ps = world.particles;
     const std::size_t n = ps.size();
     ParticleFrame f;

@@ -10,20 +10,19 @@ namespace {
 using MassLeaf = openvdb::FloatTree::LeafNodeType;
 using VelocityLeaf = openvdb::Vec3fTree::LeafNodeType;
 
-openvdb::Coord leafOrigin(const LeafKey& k)
-{
+openvdb::Coord leafOrigin(const LeafKey& k) {
     return openvdb::Coord(k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim);
 }
 
-int offsetCount(int dim) { return 1 << dim; }
+int offsetCount(int dim) {
+    return 1 << dim;
+}
 
-LeafKey shifted(const LeafKey& k, int o, int sign)
-{
+LeafKey shifted(const LeafKey& k, int o, int sign) {
     return {k[0] + sign * (o & 1), k[1] + sign * ((o >> 1) & 1), k[2] + sign * ((o >> 2) & 1)};
 }
 
-std::int32_t findKey(const std::vector<LeafKey>& keys, const LeafKey& k)
-{
+std::int32_t findKey(const std::vector<LeafKey>& keys, const LeafKey& k) {
     auto it = std::lower_bound(keys.begin(), keys.end(), k);
     return (it != keys.end() && *it == k) ? static_cast<std::int32_t>(it - keys.begin()) : -1;
 }
@@ -44,8 +43,7 @@ struct Grid::Impl {
     // and allocates the new ones: no per-step reallocation of a steady topology.
     template <typename TreeT>
     static void retopologise(TreeT& tree, std::vector<typename TreeT::LeafNodeType*>& leaves,
-                             const std::vector<LeafKey>& newKeys)
-    {
+                             const std::vector<LeafKey>& newKeys) {
         using LeafT = typename TreeT::LeafNodeType;
         leaves.resize(newKeys.size());
         for (std::size_t b = 0; b < newKeys.size(); ++b) {
@@ -59,13 +57,10 @@ struct Grid::Impl {
 };
 
 Grid::Grid()
-    : mImpl(new Impl)
-{
-}
+    : mImpl(new Impl) {}
 Grid::~Grid() = default;
 
-void Grid::rebuild(const ParticleSet& particles, int auxChannels)
-{
+void Grid::rebuild(const ParticleSet& particles, int auxChannels) {
     Impl& g = *mImpl;
     const int no = offsetCount(particles.dim);
     std::vector<LeafKey> keys;
@@ -97,39 +92,42 @@ void Grid::rebuild(const ParticleSet& particles, int auxChannels)
     }
 }
 
-std::size_t Grid::blockCount() const { return mImpl->keys.size(); }
-const LeafKey& Grid::blockKey(std::size_t b) const { return mImpl->keys[b]; }
-float* Grid::mass(std::size_t b) { return mImpl->massLeaves[b]->buffer().data(); }
-const float* Grid::mass(std::size_t b) const { return mImpl->massLeaves[b]->buffer().data(); }
-float* Grid::velocity(std::size_t b)
-{
+std::size_t Grid::blockCount() const {
+    return mImpl->keys.size();
+}
+const LeafKey& Grid::blockKey(std::size_t b) const {
+    return mImpl->keys[b];
+}
+float* Grid::mass(std::size_t b) {
+    return mImpl->massLeaves[b]->buffer().data();
+}
+const float* Grid::mass(std::size_t b) const {
+    return mImpl->massLeaves[b]->buffer().data();
+}
+float* Grid::velocity(std::size_t b) {
     return reinterpret_cast<float*>(mImpl->velocityLeaves[b]->buffer().data());
 }
-const float* Grid::velocity(std::size_t b) const
-{
+const float* Grid::velocity(std::size_t b) const {
     return reinterpret_cast<const float*>(mImpl->velocityLeaves[b]->buffer().data());
 }
-float* Grid::aux(std::size_t b)
-{
+float* Grid::aux(std::size_t b) {
     return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
 }
-const float* Grid::aux(std::size_t b) const
-{
+const float* Grid::aux(std::size_t b) const {
     return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
 }
-int Grid::auxChannels() const { return mImpl->auxChannels; }
+int Grid::auxChannels() const {
+    return mImpl->auxChannels;
+}
 
-const std::vector<NeighbourIndices>& Grid::blocksOfParticleLeaf() const
-{
+const std::vector<NeighbourIndices>& Grid::blocksOfParticleLeaf() const {
     return mImpl->blocksOfParticleLeaf;
 }
-const std::vector<NeighbourIndices>& Grid::particleLeavesOfBlock() const
-{
+const std::vector<NeighbourIndices>& Grid::particleLeavesOfBlock() const {
     return mImpl->particleLeavesOfBlock;
 }
 
-std::size_t Grid::activeNodeCount(int dim) const
-{
+std::size_t Grid::activeNodeCount(int dim) const {
     std::size_t n = 0;
     const int nz = dim == 3 ? kLeafDim : 1;
     for (std::size_t b = 0; b < blockCount(); ++b) {

@@ -19,23 +19,20 @@ namespace {
 
 namespace fs = std::filesystem;
 
-IoError writeError(const std::string& path, int errnum)
-{
+IoError writeError(const std::string& path, int errnum) {
     return IoError("cannot write " + path + ": " +
                    (errnum != 0 ? std::strerror(errnum) : "write failed"));
 }
 
 /// `dir/.name.tmp` for `dir/name`: the same folder, so that the rename cannot cross file
 /// systems, and a dot name, so that tools globbing for frames skip it.
-std::string tempPathFor(const std::string& path)
-{
+std::string tempPathFor(const std::string& path) {
     const fs::path p(path);
     return (p.parent_path() / ("." + p.filename().string() + ".tmp")).string();
 }
 
 /// write(2) may write less than asked (signals, pipes); loop until all of `text` is out.
-void writeAll(int fd, const std::string& text, const std::string& path)
-{
+void writeAll(int fd, const std::string& text, const std::string& path) {
     const char* data = text.data();
     size_t left = text.size();
     while (left > 0) {
@@ -49,8 +46,7 @@ void writeAll(int fd, const std::string& text, const std::string& path)
 
 /// Writes and syncs `tmp`; the sync comes before the rename, so that a power cut cannot leave
 /// the final name on an empty file.
-void writeTempFile(const std::string& tmp, const std::string& text, const std::string& path)
-{
+void writeTempFile(const std::string& tmp, const std::string& text, const std::string& path) {
     const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
     if (fd < 0) throw writeError(path, errno);
     try {
@@ -64,16 +60,14 @@ void writeTempFile(const std::string& tmp, const std::string& text, const std::s
 }
 
 /// RFC 4180 quoting, needed only if a cell ever holds a comma, a quote or a line break.
-std::string csvField(const std::string& cell)
-{
+std::string csvField(const std::string& cell) {
     if (cell.find_first_of(",\"\r\n") == std::string::npos) return cell;
     std::string out = "\"";
     for (char c : cell) out += c == '"' ? std::string("\"\"") : std::string(1, c);
     return out + "\"";
 }
 
-std::string csvLine(const std::vector<std::string>& cells)
-{
+std::string csvLine(const std::vector<std::string>& cells) {
     std::string line;
     for (size_t i = 0; i < cells.size(); ++i) {
         if (i > 0) line += ',';
@@ -82,18 +76,31 @@ std::string csvLine(const std::vector<std::string>& cells)
     return line + '\n';
 }
 
-std::string jsonString(const std::string& s)
-{
+std::string jsonString(const std::string& s) {
     std::string out = "\"";
     for (const char c : s) {
         switch (c) {
-        case '"': out += "\\\""; break;
-        case '\\': out += "\\\\"; break;
-        case '\b': out += "\\b"; break;
-        case '\f': out += "\\f"; break;
-        case '\n': out += "\\n"; break;
-        case '\r': out += "\\r"; break;
-        case '\t': out += "\\t"; break;
+        case '"':
+            out += "\\\"";
+            break;
+        case '\\':
+            out += "\\\\";
+            break;
+        case '\b':
+            out += "\\b";
+            break;
+        case '\f':
+            out += "\\f";
+            break;
+        case '\n':
+            out += "\\n";
+            break;
+        case '\r':
+            out += "\\r";
+            break;
+        case '\t':
+            out += "\\t";
+            break;
         default:
             if (static_cast<unsigned char>(c) < 0x20) {
                 char escaped[8];
@@ -109,8 +116,7 @@ std::string jsonString(const std::string& s)
 
 /// Sets `key` to an encoded value; a key set twice keeps its first place.
 void upsert(std::vector<std::pair<std::string, std::string>>& items, const std::string& key,
-            std::string encoded)
-{
+            std::string encoded) {
     for (auto& item : items) {
         if (item.first == key) {
             item.second = std::move(encoded);
@@ -122,16 +128,14 @@ void upsert(std::vector<std::pair<std::string, std::string>>& items, const std::
 
 } // namespace
 
-std::string frameFileName(const std::string& stem, int frame)
-{
+std::string frameFileName(const std::string& stem, int frame) {
     if (frame < 0) throw std::invalid_argument("negative frame number " + std::to_string(frame));
     char digits[16];
     std::snprintf(digits, sizeof digits, "%04d", frame);
     return stem + "." + digits + ".vdb";
 }
 
-void writeFileAtomic(const std::string& path, const std::string& text)
-{
+void writeFileAtomic(const std::string& path, const std::string& text) {
     const std::string tmp = tempPathFor(path);
     try {
         writeTempFile(tmp, text, path);
@@ -142,8 +146,7 @@ void writeFileAtomic(const std::string& path, const std::string& text)
     }
 }
 
-void makeDirectories(const std::string& path)
-{
+void makeDirectories(const std::string& path) {
     if (path.empty()) return; // the current folder
     std::error_code ec;
     fs::create_directories(path, ec);
@@ -158,8 +161,7 @@ void makeDirectories(const std::string& path)
 
 MetricsWriter::MetricsWriter(const std::string& path, std::vector<std::string> columns)
     : mPath(path)
-    , mColumns(std::move(columns))
-{
+    , mColumns(std::move(columns)) {
     std::FILE* file = std::fopen(path.c_str(), "w");
     if (!file) throw writeError(path, errno);
     mFile = file;
@@ -172,16 +174,14 @@ MetricsWriter::MetricsWriter(const std::string& path, std::vector<std::string> c
     }
 }
 
-MetricsWriter::~MetricsWriter()
-{
+MetricsWriter::~MetricsWriter() {
     if (mFile) std::fclose(static_cast<std::FILE*>(mFile)); // rows are flushed already
 }
 
-void MetricsWriter::appendRow(const std::vector<std::string>& cells)
-{
+void MetricsWriter::appendRow(const std::vector<std::string>& cells) {
     if (cells.size() != mColumns.size()) {
-        throw std::logic_error("metrics row has " + std::to_string(cells.size()) +
-                               " cells for " + std::to_string(mColumns.size()) + " columns");
+        throw std::logic_error("metrics row has " + std::to_string(cells.size()) + " cells for " +
+                               std::to_string(mColumns.size()) + " columns");
     }
     auto* file = static_cast<std::FILE*>(mFile);
     // Flushed row by row: a run stopped by a signal or a crash keeps every finished frame.
@@ -193,8 +193,7 @@ void MetricsWriter::appendRow(const std::vector<std::string>& cells)
 
 ////////////////////////////////////////
 
-std::string formatNumber(double value)
-{
+std::string formatNumber(double value) {
     if (!std::isfinite(value)) return "";
     // Whole numbers (frames, steps, counts) read better as integers: "1000000", not "1e+06".
     // "%.0f" keeps the sign of -0.
@@ -211,25 +210,23 @@ std::string formatNumber(double value)
     return text;
 }
 
-void JsonObject::set(const std::string& key, double value)
-{
+void JsonObject::set(const std::string& key, double value) {
     upsert(mItems, key, std::isfinite(value) ? formatNumber(value) : "null");
 }
 
-void JsonObject::set(const std::string& key, long long value)
-{
+void JsonObject::set(const std::string& key, long long value) {
     upsert(mItems, key, std::to_string(value));
 }
 
-void JsonObject::set(const std::string& key, const std::string& value)
-{
+void JsonObject::set(const std::string& key, const std::string& value) {
     upsert(mItems, key, jsonString(value));
 }
 
-void JsonObject::setNull(const std::string& key) { upsert(mItems, key, "null"); }
+void JsonObject::setNull(const std::string& key) {
+    upsert(mItems, key, "null");
+}
 
-std::string JsonObject::str() const
-{
+std::string JsonObject::str() const {
     if (mItems.empty()) return "{}\n";
     std::string out = "{\n";
     for (size_t i = 0; i < mItems.size(); ++i) {

@@ -31,24 +31,26 @@ using openvdb::tools::PointIndexTree;
 
 constexpr Index kLeafVoxels = openvdb::FloatTree::LeafNodeType::SIZE; // 512
 
-openvdb::Vec3f toVdb(const std::array<float, 3>& a) { return {a[0], a[1], a[2]}; }
-float toVdb(float x) { return x; }
-std::int32_t toVdb(std::int32_t x) { return x; }
-std::array<float, 3> fromVdb(const openvdb::Vec3d& a)
-{
-    return {float(a[0]), float(a[1]), float(a[2])};
+openvdb::Vec3f toVdb(const std::array<float, 3>& a) {
+    return {a[0], a[1], a[2]};
+}
+float toVdb(float x) {
+    return x;
+}
+std::int32_t toVdb(std::int32_t x) {
+    return x;
 }
 
 /// One ParticleFrame array seen through OpenVDB's point-array interface (that of
 /// points::PointAttributeVector): positions for the PointPartitioner, values for
 /// populateAttribute. A view, so a frame is never copied.
-template <typename SourceT>
-class ArrayView {
+template <typename SourceT> class ArrayView {
 public:
     using value_type = decltype(toVdb(std::declval<SourceT>()));
     using PosType = value_type;
 
-    explicit ArrayView(const std::vector<SourceT>& data) : mData(data) {}
+    explicit ArrayView(const std::vector<SourceT>& data)
+        : mData(data) {}
     size_t size() const { return mData.size(); }
     void getPos(size_t n, PosType& xyz) const { xyz = toVdb(mData[n]); }
     void get(value_type& value, size_t n, Index = 0) const { value = toVdb(mData[n]); }
@@ -57,18 +59,15 @@ private:
     const std::vector<SourceT>& mData;
 };
 
-IoError ioError(const std::string& path, const std::string& reason)
-{
+IoError ioError(const std::string& path, const std::string& reason) {
     return IoError("cannot write " + path + ": " + reason);
 }
 
-IoError ioError(const std::string& path, int errnum)
-{
+IoError ioError(const std::string& path, int errnum) {
     return ioError(path, errnum != 0 ? std::strerror(errnum) : "write failed");
 }
 
-void checkVoxelSize(double voxelSize)
-{
+void checkVoxelSize(double voxelSize) {
     if (!(std::isfinite(voxelSize) && voxelSize > 0.0)) {
         throw std::invalid_argument("cache voxel size must be positive and finite, got " +
                                     std::to_string(voxelSize));
@@ -76,8 +75,7 @@ void checkVoxelSize(double voxelSize)
 }
 
 template <typename T>
-void checkLength(const std::vector<T>& values, size_t expected, const char* name)
-{
+void checkLength(const std::vector<T>& values, size_t expected, const char* name) {
     if (values.size() != expected) {
         throw std::invalid_argument(std::string("cache array '") + name + "' has " +
                                     std::to_string(values.size()) + " entries, expected " +
@@ -85,8 +83,7 @@ void checkLength(const std::vector<T>& values, size_t expected, const char* name
     }
 }
 
-void checkParticles(const ParticleFrame& particles)
-{
+void checkParticles(const ParticleFrame& particles) {
     const size_t n = particles.P.size();
     checkLength(particles.v, n, "v");
     checkLength(particles.material, n, "material");
@@ -113,65 +110,20 @@ void checkParticles(const ParticleFrame& particles)
 /// the point data grid was built from.
 template <typename SourceT>
 void addAttribute(PointDataTree& tree, const PointIndexTree& index, const std::string& name,
-                  const std::vector<SourceT>& values)
-{
+                  const std::vector<SourceT>& values) {
     using ValueT = typename ArrayView<SourceT>::value_type;
     openvdb::points::appendAttribute<ValueT>(tree, name);
     openvdb::points::populateAttribute(tree, index, name, ArrayView<SourceT>(values));
 }
 
-/// createPointDataGrid stores each position as a float offset from its voxel centre, and a
-/// reader gets it back as indexToWorld(centre + offset) rounded to float. Those two roundings
-/// can land one float step away from the input; this nudges the stored offset until the
-/// reader's reconstruction gives back the exact input position.
-openvdb::Vec3f exactOffset(const openvdb::math::Transform& xform, const openvdb::Coord& ijk,
-                           openvdb::Vec3f offset, const std::array<float, 3>& target)
-{
-    const openvdb::Vec3d centre = ijk.asVec3d();
-    for (int attempt = 0; attempt < 4; ++attempt) {
-        const auto world = fromVdb(xform.indexToWorld(centre + openvdb::Vec3d(offset)));
-        if (world == target) break;
-        for (int a = 0; a < 3; ++a) {
-            const float toward = world[a] < target[a] ? 1.f : -1.f;
-            if (world[a] != target[a]) offset[a] = std::nextafter(offset[a], toward);
-        }
-    }
-    return offset;
-}
-
-/// Makes every stored position reconstruct to exactly the input P (see exactOffset).
-void makePositionsExact(PointDataGrid& grid, const PointIndexTree& index,
-                        const std::vector<std::array<float, 3>>& positions)
-{
-    using PositionHandle = openvdb::points::AttributeWriteHandle<openvdb::Vec3f>;
-    const auto& xform = grid.transform();
-    openvdb::tree::LeafManager<PointDataTree> leaves(grid.tree());
-    leaves.foreach ([&](PointDataTree::LeafNodeType& leaf, size_t) {
-        const auto* indexLeaf = index.probeConstLeaf(leaf.origin());
-        PositionHandle handle(leaf.attributeArray("P"));
-        // The same walk as createPointDataGrid's: voxel by voxel, points in index order.
-        Index i = 0;
-        for (auto voxel = indexLeaf->cbeginValueOn(); voxel; ++voxel) {
-            const PointIndexTree::LeafNodeType::ValueType *begin = nullptr, *end = nullptr;
-            indexLeaf->getIndices(voxel.getCoord(), begin, end);
-            for (; begin < end; ++begin, ++i) {
-                handle.set(i, exactOffset(xform, voxel.getCoord(), handle.get(i),
-                                          positions[*begin]));
-            }
-        }
-    });
-}
-
-PointDataGrid::Ptr makePointGrid(const ParticleFrame& particles, double voxelSize)
-{
+PointDataGrid::Ptr makePointGrid(const ParticleFrame& particles, double voxelSize) {
     using namespace openvdb;
     const auto xform = math::Transform::createLinearTransform(voxelSize);
     const ArrayView<std::array<float, 3>> positions(particles.P);
     const auto index = tools::createPointIndexGrid<PointIndexGrid>(positions, *xform);
     // NullCodec: the cache keeps exact positions, not quantised ones (style.md).
-    auto grid = points::createPointDataGrid<points::NullCodec, PointDataGrid>(*index, positions,
-                                                                             *xform);
-    makePositionsExact(*grid, index->tree(), particles.P);
+    auto grid =
+        points::createPointDataGrid<points::NullCodec, PointDataGrid>(*index, positions, *xform);
     auto& tree = grid->tree();
     addAttribute(tree, index->tree(), "v", particles.v);
     addAttribute(tree, index->tree(), "material", particles.material);
@@ -194,8 +146,7 @@ struct VolumeGrids {
     openvdb::FloatGrid::Ptr failed;
 };
 
-VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double voxelSize)
-{
+VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double voxelSize) {
     VolumeGrids out;
     for (const std::string& name : names) {
         if (name == "density") {
@@ -221,8 +172,7 @@ VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double v
     return out;
 }
 
-bool hasMass(const VolumeFrame& volume, size_t block)
-{
+bool hasMass(const VolumeFrame& volume, size_t block) {
     const float* density = volume.density.data() + block * kLeafVoxels;
     for (Index i = 0; i < kLeafVoxels; ++i) {
         if (density[i] > 0.f) return true;
@@ -231,16 +181,14 @@ bool hasMass(const VolumeFrame& volume, size_t block)
 }
 
 template <typename GridT>
-typename GridT::TreeType::LeafNodeType* touchLeaf(GridT* grid, const openvdb::Coord& origin)
-{
+typename GridT::TreeType::LeafNodeType* touchLeaf(GridT* grid, const openvdb::Coord& origin) {
     return grid ? grid->tree().touchLeaf(origin) : nullptr;
 }
 
 /// Copies block `block` into its leaves. The block offsets are LeafNode offsets (io.h), so the
 /// values go in without any coordinate arithmetic. Voxels without mass stay inactive at the
 /// background 0: a renderer reads their value, and an empty node has no velocity.
-void fillBlock(const VolumeFrame& volume, size_t block, VolumeGrids& grids)
-{
+void fillBlock(const VolumeFrame& volume, size_t block, VolumeGrids& grids) {
     const auto& o = volume.origin[block];
     const openvdb::Coord origin(o[0], o[1], o[2]);
     auto* density = touchLeaf(grids.density.get(), origin);
@@ -255,8 +203,7 @@ void fillBlock(const VolumeFrame& volume, size_t block, VolumeGrids& grids)
     }
 }
 
-void checkVolume(const VolumeFrame& volume, const VolumeGrids& grids)
-{
+void checkVolume(const VolumeFrame& volume, const VolumeGrids& grids) {
     const size_t values = volume.origin.size() * kLeafVoxels;
     checkLength(volume.density, values, "density"); // needed by every grid: it sets activity
     if (grids.velocity) checkLength(volume.velocity, values, "velocity");
@@ -270,8 +217,7 @@ void checkVolume(const VolumeFrame& volume, const VolumeGrids& grids)
     }
 }
 
-VolumeGrids makeVolumeGrids(const VolumeFrame& volume, const std::vector<std::string>& names)
-{
+VolumeGrids makeVolumeGrids(const VolumeFrame& volume, const std::vector<std::string>& names) {
     VolumeGrids grids = makeEmptyVolumeGrids(names, volume.voxelSize);
     checkVolume(volume, grids);
     // Blocks without mass are skipped rather than pruned afterwards: no empty leaf is made.
@@ -288,8 +234,7 @@ VolumeGrids makeVolumeGrids(const VolumeFrame& volume, const std::vector<std::st
 
 // Files
 
-void setFrameMetadata(openvdb::GridBase& grid, const FrameInfo& info)
-{
+void setFrameMetadata(openvdb::GridBase& grid, const FrameInfo& info) {
     grid.insertMeta("time", openvdb::DoubleMetadata(info.time));
     grid.insertMeta("frame", openvdb::Int32Metadata(info.frame));
     grid.insertMeta("frame_rate", openvdb::DoubleMetadata(info.frameRate));
@@ -298,11 +243,9 @@ void setFrameMetadata(openvdb::GridBase& grid, const FrameInfo& info)
 
 /// Blosc as outputs.md asks; a build of OpenVDB without it would throw on write, so such a
 /// build falls back to zlib, which every reader also understands.
-uint32_t compressionFlags()
-{
-    const uint32_t codec = openvdb::io::Archive::hasBloscCompression()
-                               ? openvdb::io::COMPRESS_BLOSC
-                               : openvdb::io::COMPRESS_ZIP;
+uint32_t compressionFlags() {
+    const uint32_t codec = openvdb::io::Archive::hasBloscCompression() ? openvdb::io::COMPRESS_BLOSC
+                                                                       : openvdb::io::COMPRESS_ZIP;
     return codec | openvdb::io::COMPRESS_ACTIVE_MASK;
 }
 
@@ -312,8 +255,7 @@ uint32_t compressionFlags()
 class CheckedArchive : public openvdb::io::Archive {
 public:
     void writeFile(const std::string& path, const std::string& reportedPath,
-                   const openvdb::GridCPtrVec& grids) const
-    {
+                   const openvdb::GridCPtrVec& grids) const {
         std::ofstream os;
         os.exceptions(std::ios::failbit | std::ios::badbit);
         errno = 0;
@@ -331,8 +273,7 @@ public:
 
 /// Flushes the file to the disk before the rename, so that a power cut cannot leave a complete
 /// name on an empty file.
-void syncFile(const std::string& path, const std::string& reportedPath)
-{
+void syncFile(const std::string& path, const std::string& reportedPath) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0 || ::fsync(fd) != 0) {
         const int errnum = errno;
@@ -344,8 +285,7 @@ void syncFile(const std::string& path, const std::string& reportedPath)
 
 /// Writes `dir/name` through `dir/.name.tmp` and a rename, so the frame appears only complete.
 void writeGridsAtomic(const std::string& dir, const std::string& name,
-                      const openvdb::GridCPtrVec& grids)
-{
+                      const openvdb::GridCPtrVec& grids) {
     const std::string prefix = dir.empty() ? std::string() : dir + "/";
     const std::string path = prefix + name, tmp = prefix + "." + name + ".tmp";
     try {
@@ -363,8 +303,7 @@ void writeGridsAtomic(const std::string& dir, const std::string& name,
 } // namespace
 
 void writeParticleCache(const std::string& dir, const FrameInfo& info, double voxelSize,
-                        const ParticleFrame& particles)
-{
+                        const ParticleFrame& particles) {
     checkVoxelSize(voxelSize);
     checkParticles(particles);
     openvdb::initialize(); // idempotent, and cheap after the first call
@@ -374,8 +313,7 @@ void writeParticleCache(const std::string& dir, const FrameInfo& info, double vo
 }
 
 void writeVolumeCache(const std::string& dir, const FrameInfo& info, const VolumeFrame& volume,
-                      const std::vector<std::string>& grids)
-{
+                      const std::vector<std::string>& grids) {
     checkVoxelSize(volume.voxelSize);
     openvdb::initialize();
     const VolumeGrids built = makeVolumeGrids(volume, grids);

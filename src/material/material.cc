@@ -15,8 +15,7 @@ constexpr float kMaxSinhArg = 60.f;
 
 /// Sum of the d principal entries in use (plain loops: d is 2 or 3, and Eigen's dynamic head()
 /// trips GCC's -Warray-bounds when vectorised).
-float trace(const Vec3f& v, int dim)
-{
+float trace(const Vec3f& v, int dim) {
     float tr = 0.f;
     for (int i = 0; i < dim; ++i) tr += v[i];
     return tr;
@@ -24,8 +23,7 @@ float trace(const Vec3f& v, int dim)
 
 } // namespace
 
-Lame Lame::fromYoungPoisson(double youngsModulus, double poissonRatio)
-{
+Lame Lame::fromYoungPoisson(double youngsModulus, double poissonRatio) {
     const double E = youngsModulus, nu = poissonRatio;
     Lame lame;
     lame.mu = float(E / (2.0 * (1.0 + nu)));
@@ -33,8 +31,7 @@ Lame Lame::fromYoungPoisson(double youngsModulus, double poissonRatio)
     return lame;
 }
 
-Material Material::fromDesc(const MaterialDesc& desc, int dim)
-{
+Material Material::fromDesc(const MaterialDesc& desc, int dim) {
     Material m;
     m.model = desc.model;
     m.density = float(desc.density);
@@ -50,8 +47,7 @@ Material Material::fromDesc(const MaterialDesc& desc, int dim)
     return m;
 }
 
-PlasticState Material::initialState() const
-{
+PlasticState Material::initialState() const {
     PlasticState state;
     if (model != MaterialModel::Snow && model != MaterialModel::WeakLayer) return state;
     // Invert eq. (2) (eq. (3) for the weak layer, where this is eta0), Gaume et al. 2019:
@@ -64,29 +60,25 @@ PlasticState Material::initialState() const
     return state;
 }
 
-float Material::pWaveSpeed() const
-{
+float Material::pWaveSpeed() const {
     return std::sqrt((lame.lambda + 2.f * lame.mu) / density);
 }
 
-Vec3f kirchhoffPrincipal(const Lame& lame, const Vec3f& eps, int dim)
-{
+Vec3f kirchhoffPrincipal(const Lame& lame, const Vec3f& eps, int dim) {
     const float tr = trace(eps, dim);
     Vec3f tau = Vec3f::Zero();
     for (int i = 0; i < dim; ++i) tau[i] = 2.f * lame.mu * eps[i] + lame.lambda * tr;
     return tau;
 }
 
-float henckyEnergy(const Lame& lame, const Vec3f& eps, int dim)
-{
+float henckyEnergy(const Lame& lame, const Vec3f& eps, int dim) {
     const float tr = trace(eps, dim);
     float epsSq = 0.f;
     for (int i = 0; i < dim; ++i) epsSq += eps[i] * eps[i];
     return lame.mu * epsSq + 0.5f * lame.lambda * tr * tr;
 }
 
-StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim)
-{
+StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim) {
     // Gaume et al. 2019, sec. 2.2: p = -tr(tau)/d, s = tau + p I, q = sqrt(3/2 s:s).
     StressInvariants inv;
     inv.p = -trace(tauPrincipal, dim) / float(dim);
@@ -96,16 +88,14 @@ StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim)
     return inv;
 }
 
-float camClayYield(float p, float q, float p0, float M, float beta)
-{
+float camClayYield(float p, float q, float p0, float M, float beta) {
     // eq. (1), Gaume et al. 2019
     return (1.f + 2.f * beta) * q * q + M * M * (p + beta * p0) * (p - p0);
 }
 
-float camClayP0(float K, float xi, float hardeningVariable)
-{
+float camClayP0(float K, float xi, float hardeningVariable) {
     // eq. (2) (and eq. (3) with the anticrack strain), Gaume et al. 2019
-    const float arg = std::min(xi * std::max(-hardeningVariable, 0.f), kMaxSinhArg);
+    const float arg = std::min(xi * std::max(0.f, -hardeningVariable), kMaxSinhArg);
     return K * std::sinh(arg);
 }
 

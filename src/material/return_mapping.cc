@@ -34,7 +34,9 @@ struct Projection {
 
 /// 1 on the d principal entries in use, 0 past them. Fixed-size masked arithmetic instead of
 /// head(dim): it vectorises without GCC's -Warray-bounds false positives on dynamic blocks.
-Vec3f activeMask(int dim) { return dim == 2 ? Vec3f(1.f, 1.f, 0.f) : Vec3f::Ones(); }
+Vec3f activeMask(int dim) {
+    return dim == 2 ? Vec3f(1.f, 1.f, 0.f) : Vec3f::Ones();
+}
 
 /// eps = tr/d 1 + dev over the d active entries.
 struct StrainSplit {
@@ -43,8 +45,7 @@ struct StrainSplit {
     float devNorm;
 };
 
-StrainSplit splitStrain(const Vec3f& eps, int dim)
-{
+StrainSplit splitStrain(const Vec3f& eps, int dim) {
     const Vec3f mask = activeMask(dim);
     StrainSplit out;
     out.tr = eps.dot(mask);
@@ -54,16 +55,14 @@ StrainSplit splitStrain(const Vec3f& eps, int dim)
 }
 
 /// eps with its d active entries replaced by those of `active` (entries past dim are kept).
-Vec3f replaceActive(const Vec3f& eps, const Vec3f& active, int dim)
-{
+Vec3f replaceActive(const Vec3f& eps, const Vec3f& active, int dim) {
     const Vec3f mask = activeMask(dim);
     return eps.cwiseProduct(Vec3f::Ones() - mask) + active.cwiseProduct(mask);
 }
 
 /// The non-associative Cam-Clay projection of snow-model.md (Wolper et al. 2019, Gaume et al.
 /// 2018a): beyond a tip -> that tip; otherwise scale q onto the surface at constant p.
-Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, const Vec3f& eps)
-{
+Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, const Vec3f& eps) {
     const float K = lame.bulkModulus(dim);
     const StrainSplit split = splitStrain(eps, dim);
     const float tr = split.tr;
@@ -97,8 +96,7 @@ Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, co
 }
 
 /// Applies a snow-like (eq. 2) hardening step: eps_V^P += dVolume.
-PlasticState hardenVolumetric(PlasticState state, const Projection& pr)
-{
+PlasticState hardenVolumetric(PlasticState state, const Projection& pr) {
     if (!pr.yielded) return state;
     state.flags |= kFlagFailed;
     state.hardening += pr.dVolume; // eps_V^P, eq. (2): compaction (dVolume < 0) hardens
@@ -109,8 +107,7 @@ PlasticState hardenVolumetric(PlasticState state, const Projection& pr)
 /// Weak layer while cohesive: the anticrack strain eta grows with alpha |d eps_V^P|, eq. (4),
 /// and p0 follows eq. (3). Once eta reaches 0 (p0 = 0, time t_c) the layer has collapsed: the
 /// hardening variable restarts as eps_V^P = 0 for eq. (2) and the output eta freezes at -eta0.
-PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alpha)
-{
+PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alpha) {
     if (!pr.yielded) return state;
     state.flags |= kFlagFailed;
     state.epsV += pr.dVolume;
@@ -128,8 +125,7 @@ PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alp
 } // namespace
 
 ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
-                                 const PlasticState& state)
-{
+                                 const PlasticState& state) {
     const CamClayParams& cc = m.camClay;
     const float K = m.lame.bulkModulus(m.dim);
     const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.M, cc.beta}; // eq. (2)
@@ -138,8 +134,7 @@ ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
 }
 
 ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
-                                   const PlasticState& state)
-{
+                                   const PlasticState& state) {
     const CamClayParams& cc = m.camClay;
     const float K = m.lame.bulkModulus(m.dim);
     if (state.flags & kFlagCollapsed) {
@@ -154,8 +149,7 @@ ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
 }
 
 ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
-                                       const PlasticState& state)
-{
+                                       const PlasticState& state) {
     // Klar et al. 2016, sec. 7.3: cohesionless Drucker-Prager with a constant friction angle.
     const int dim = m.dim;
     const float mu = m.lame.mu, lambda = m.lame.lambda;
@@ -181,13 +175,16 @@ ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
     return out;
 }
 
-ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state)
-{
+ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state) {
     switch (m.model) {
-    case MaterialModel::Snow: return returnMapCamClay(m, epsTrial, state);
-    case MaterialModel::WeakLayer: return returnMapWeakLayer(m, epsTrial, state);
-    case MaterialModel::Granular: return returnMapDruckerPrager(m, epsTrial, state);
-    case MaterialModel::Elastic: break;
+    case MaterialModel::Snow:
+        return returnMapCamClay(m, epsTrial, state);
+    case MaterialModel::WeakLayer:
+        return returnMapWeakLayer(m, epsTrial, state);
+    case MaterialModel::Granular:
+        return returnMapDruckerPrager(m, epsTrial, state);
+    case MaterialModel::Elastic:
+        break;
     }
     return {epsTrial, state};
 }

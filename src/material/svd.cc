@@ -25,8 +25,7 @@ constexpr double kMinStretch = 1e-6;
 
 /// One Jacobi rotation zeroing G(p, q) of the symmetric G, accumulated into U (G <- J^T G J,
 /// U <- U J). Golub & Van Loan, Matrix Computations, sec. 8.5 (the symmetric Schur rotation).
-void jacobiRotate(Matrix3d& G, Matrix3d& U, int p, int q)
-{
+void jacobiRotate(Matrix3d& G, Matrix3d& U, int p, int q) {
     const double gpq = G(p, q);
     if (gpq == 0.0) return;
     const double tau = (G(q, q) - G(p, p)) / (2.0 * gpq);
@@ -46,8 +45,7 @@ void jacobiRotate(Matrix3d& G, Matrix3d& U, int p, int q)
 /// good to ~sqrt(machine eps) * lambda_max, i.e. small stretches to ~1e-4 sigma_max. One
 /// Jacobi sweep on G = (F^T U)^T (F^T U), formed from F itself rather than from F F^T, removes
 /// that error at the cost of ~100 flops.
-void leftEigen(const Matrix3d& F, Matrix3d& U, Vector3d& lambda)
-{
+void leftEigen(const Matrix3d& F, Matrix3d& U, Vector3d& lambda) {
     Eigen::SelfAdjointEigenSolver<Matrix3d> eig;
     eig.computeDirect(F * F.transpose());
     U = eig.eigenvectors();
@@ -71,8 +69,7 @@ void leftEigen(const Matrix3d& F, Matrix3d& U, Vector3d& lambda)
 
 /// A unit vector orthogonal to the unit vector a (a cross product with the axis a is least
 /// aligned with).
-Vector3d anyOrthogonal(const Vector3d& a)
-{
+Vector3d anyOrthogonal(const Vector3d& a) {
     int axis = 0;
     a.cwiseAbs().minCoeff(&axis);
     return a.cross(Vector3d::Unit(axis)).normalized();
@@ -81,8 +78,7 @@ Vector3d anyOrthogonal(const Vector3d& a)
 /// QR of B = F^T U by modified Gram-Schmidt: B = V R with V a rotation. Column i of B is
 /// sigma_i v_i, so sigma_i = R_ii = v_i . b_i; the third column of V is v0 x v1 (det V = +1),
 /// which makes sigma_2 carry the sign of det F.
-void rightFromLeft(const Matrix3d& B, Matrix3d& V, Vector3d& sigma)
-{
+void rightFromLeft(const Matrix3d& B, Matrix3d& V, Vector3d& sigma) {
     const double scale = B.norm();
     if (!(scale > 0.0)) { // F = 0 (or NaN): any rotation will do.
         V.setIdentity();
@@ -104,8 +100,7 @@ void rightFromLeft(const Matrix3d& B, Matrix3d& V, Vector3d& sigma)
 /// Closed-form eigen-decomposition of the symmetric 2x2 matrix G G^T, G the leading block of F.
 /// The smaller eigenvalue comes from det(G)^2 / lambda_max rather than from m - r, which would
 /// cancel catastrophically for nearly singular G.
-LeftStretch leftStretch2(const Eigen::Matrix3f& F)
-{
+LeftStretch leftStretch2(const Eigen::Matrix3f& F) {
     const double f00 = F(0, 0), f01 = F(0, 1), f10 = F(1, 0), f11 = F(1, 1);
     const double a = f00 * f00 + f01 * f01; // (G G^T)_00
     const double b = f00 * f10 + f01 * f11; // (G G^T)_01
@@ -121,19 +116,20 @@ LeftStretch leftStretch2(const Eigen::Matrix3f& F)
     const double wx = b, wy = lambda0 - a;
     if (wx * wx + wy * wy > ux * ux + uy * uy) ux = wx, uy = wy;
     const double n = std::hypot(ux, uy);
-    if (n > 1e-300) ux /= n, uy /= n;
-    else ux = 1.0, uy = 0.0;
+    if (n > 1e-300)
+        ux /= n, uy /= n;
+    else
+        ux = 1.0, uy = 0.0;
 
     LeftStretch out;
     out.U << float(ux), float(-uy), 0.f, float(uy), float(ux), 0.f, 0.f, 0.f, 1.f;
-    out.sigma = Eigen::Vector3f(float(std::sqrt(std::max(lambda0, kMinStretch * kMinStretch))),
-                                float(std::sqrt(std::max(lambda1, kMinStretch * kMinStretch))),
-                                1.f);
+    out.sigma =
+        Eigen::Vector3f(float(std::sqrt(std::max(lambda0, kMinStretch * kMinStretch))),
+                        float(std::sqrt(std::max(lambda1, kMinStretch * kMinStretch))), 1.f);
     return out;
 }
 
-LeftStretch leftStretch3(const Eigen::Matrix3f& F)
-{
+LeftStretch leftStretch3(const Eigen::Matrix3f& F) {
     Matrix3d U;
     Vector3d lambda;
     leftEigen(F.cast<double>(), U, lambda);
@@ -145,8 +141,7 @@ LeftStretch leftStretch3(const Eigen::Matrix3f& F)
 
 } // namespace
 
-Svd3 svd3(const Eigen::Matrix3f& F)
-{
+Svd3 svd3(const Eigen::Matrix3f& F) {
     const Matrix3d Fd = F.cast<double>();
     Matrix3d U, V;
     Vector3d lambda, sigma;
@@ -155,8 +150,7 @@ Svd3 svd3(const Eigen::Matrix3f& F)
     return Svd3{U.cast<float>(), sigma.cast<float>(), V.cast<float>()};
 }
 
-LeftStretch leftStretch(const Eigen::Matrix3f& F, int dim)
-{
+LeftStretch leftStretch(const Eigen::Matrix3f& F, int dim) {
     return dim == 2 ? leftStretch2(F) : leftStretch3(F);
 }
 

@@ -16,10 +16,11 @@ constexpr std::uint8_t kFar = 255; // moved more than one leaf in one step
 constexpr int kDirections = 27;
 constexpr std::uint8_t kStay = 13; // direction code of (0, 0, 0)
 
-bool keyLess(const LeafKey& a, const LeafKey& b) { return a < b; }
+bool keyLess(const LeafKey& a, const LeafKey& b) {
+    return a < b;
+}
 
-std::uint8_t directionCode(const LeafKey& from, const LeafKey& to)
-{
+std::uint8_t directionCode(const LeafKey& from, const LeafKey& to) {
     int code = 0;
     for (int a = 0; a < 3; ++a) {
         const int d = to[a] - from[a];
@@ -29,21 +30,18 @@ std::uint8_t directionCode(const LeafKey& from, const LeafKey& to)
     return static_cast<std::uint8_t>(code);
 }
 
-LeafKey offsetKey(const LeafKey& k, int code)
-{
+LeafKey offsetKey(const LeafKey& k, int code) {
     return {k[0] + code / 9 - 1, k[1] + (code / 3) % 3 - 1, k[2] + code % 3 - 1};
 }
 
-std::size_t findLeaf(const std::vector<LeafKey>& leaves, const LeafKey& k)
-{
+std::size_t findLeaf(const std::vector<LeafKey>& leaves, const LeafKey& k) {
     return static_cast<std::size_t>(std::lower_bound(leaves.begin(), leaves.end(), k, keyLess) -
                                     leaves.begin());
 }
 
 } // namespace
 
-LeafKey leafOf(const Vec3f& x, float invDx, int dim)
-{
+LeafKey leafOf(const Vec3f& x, float invDx, int dim) {
     LeafKey key{0, 0, 0};
     for (int a = 0; a < dim; ++a) {
         const int base = static_cast<int>(std::floor(x[a] * invDx - 0.5f));
@@ -53,8 +51,7 @@ LeafKey leafOf(const Vec3f& x, float invDx, int dim)
 }
 
 void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float particleMass,
-                      float volume, int materialIndex, const PlasticState& state)
-{
+                      float volume, int materialIndex, const PlasticState& state) {
     x.push_back(position);
     v.push_back(velocity);
     C.push_back(Mat3f::Zero());
@@ -66,8 +63,7 @@ void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float partic
     plastic.push_back(state);
 }
 
-void ParticleSet::compact(const std::vector<char>& keep)
-{
+void ParticleSet::compact(const std::vector<char>& keep) {
     std::size_t n = 0;
     for (std::size_t i = 0; i < size(); ++i) {
         if (!keep[i]) continue;
@@ -87,8 +83,7 @@ namespace {
 // Gathers a[k] = a[order[k]] through a scratch buffer, in parallel.
 template <typename T>
 void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
-                   std::vector<unsigned char>& scratch)
-{
+                   std::vector<unsigned char>& scratch) {
     const std::size_t n = a.size();
     if (scratch.size() < n * sizeof(T)) scratch.resize(n * sizeof(T));
     T* tmp = reinterpret_cast<T*>(scratch.data());
@@ -103,8 +98,7 @@ void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
 
 // Initial bucketing of unsorted particles: a stable sort by leaf key.
 void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t>& order,
-                     std::vector<LeafKey>& leaves, std::vector<std::uint32_t>& leafStart)
-{
+                     std::vector<LeafKey>& leaves, std::vector<std::uint32_t>& leafStart) {
     order.resize(keys.size());
     std::iota(order.begin(), order.end(), 0u);
     std::stable_sort(order.begin(), order.end(),
@@ -122,8 +116,7 @@ void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t
 
 } // namespace
 
-void ParticleSet::bucketByLeaf()
-{
+void ParticleSet::bucketByLeaf() {
     const float invDx = 1.f / dx;
     const std::size_t n = size();
     if (leaves.empty()) {
@@ -172,8 +165,8 @@ void ParticleSet::bucketByLeaf()
         for (std::size_t l = 0; l < nl; ++l) {
             for (int c = 0; c < kDirections; ++c) {
                 if (count[l][c] == 0) continue;
-                dest[l][c] = static_cast<std::uint32_t>(
-                    findLeaf(newLeaves, offsetKey(leaves[l], c)));
+                dest[l][c] =
+                    static_cast<std::uint32_t>(findLeaf(newLeaves, offsetKey(leaves[l], c)));
                 newCount[dest[l][c]] += count[l][c];
             }
         }

@@ -127,6 +127,7 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     r.real("frame_rate", sim.frameRate, Range::positive());
     r.vector("gravity", sim.gravity);
     r.integer("seed", sim.seed, Range::nonNegative());
+    r.real("gravity_ramp", sim.gravityRamp, Range::nonNegative());
     r.finish();
 }
 

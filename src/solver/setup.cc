@@ -12,40 +12,37 @@ namespace {
 
 /// SplitMix64 (Steele et al. 2014): a counter-based generator, so that every seed position
 /// depends only on (seed, body, cell, sample) and not on the order of seeding.
-std::uint64_t splitMix(std::uint64_t z)
-{
+std::uint64_t splitMix(std::uint64_t z) {
     z += 0x9e3779b97f4a7c15ull;
     z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
     return z ^ (z >> 31);
 }
 
-float uniform01(std::uint64_t& state)
-{
+float uniform01(std::uint64_t& state) {
     state = splitMix(state);
     return float(state >> 40) * (1.f / 16777216.f);
 }
 
-Vec3f toVec3f(const Vec3d& v) { return Vec3f(float(v[0]), float(v[1]), float(v[2])); }
+Vec3f toVec3f(const Vec3d& v) {
+    return Vec3f(float(v[0]), float(v[1]), float(v[2]));
+}
 
 /// Smallest signed distance to any terrain: the height above the ground, measured normal to it.
-float groundDistance(const std::vector<Collider>& colliders, const Vec3f& p)
-{
+float groundDistance(const std::vector<Collider>& colliders, const Vec3f& p) {
     float d = std::numeric_limits<float>::max();
     for (const Collider& c : colliders) d = std::min(d, c.signedDistance(p));
     return d;
 }
 
-float groundHeight(const std::vector<Collider>& colliders, float x, float z)
-{
+float groundHeight(const std::vector<Collider>& colliders, float x, float z) {
     float h = -std::numeric_limits<float>::infinity();
     for (const Collider& c : colliders) h = std::max(h, c.heightAt(x, z));
     return h;
 }
 
 /// Distance from the ground to the base of a layer body: the thicknesses below it.
-double layerBase(const SceneDesc& scene, const BodyDesc& body)
-{
+double layerBase(const SceneDesc& scene, const BodyDesc& body) {
     double base = 0.0;
     for (const BodyDesc* b = &body; b->onTopOf != "ground";) {
         auto below = std::find_if(scene.bodies.begin(), scene.bodies.end(),
@@ -58,13 +55,12 @@ double layerBase(const SceneDesc& scene, const BodyDesc& body)
 }
 
 struct SeedRegion {
-    Vec3f lo, hi;                            ///< bounding box, m
+    Vec3f lo, hi; ///< bounding box, m
     std::function<bool(const Vec3f&)> inside;
 };
 
 SeedRegion regionOf(const SceneDesc& scene, const BodyDesc& body,
-                    const std::vector<Collider>& colliders)
-{
+                    const std::vector<Collider>& colliders) {
     const int dim = scene.simulation.dimension;
     SeedRegion r;
     if (body.shape == BodyShape::Box) {
@@ -112,8 +108,7 @@ SeedRegion regionOf(const SceneDesc& scene, const BodyDesc& body,
     return r;
 }
 
-bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p)
-{
+bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
     for (const CutDesc& cut : scene.cuts)
         if (!body.name.empty() && cut.layer == body.name && p[0] >= cut.fromX &&
             p[0] < cut.fromX + cut.length)
@@ -124,8 +119,7 @@ bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p)
 /// Seeds particles_per_cell particles in every cell of the body's bounding box: stratified on a
 /// k^d sub-lattice when particles_per_cell = k^d, uniformly random in the cell otherwise, with
 /// positions jittered by `jitter` of a sub-cell.
-void seedBodies(const SceneDesc& scene, World& world)
-{
+void seedBodies(const SceneDesc& scene, World& world) {
     const int dim = scene.simulation.dimension;
     const int ppc = scene.grid.particlesPerCell;
     const double dx = scene.grid.dx;
@@ -158,8 +152,7 @@ void seedBodies(const SceneDesc& scene, World& world)
                         const long cell[3] = {cx, cy, cz};
                         for (int a = 0; a < dim; ++a) {
                             const float u = uniform01(state);
-                            const float f = lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k
-                                                    : u;
+                            const float f = lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k : u;
                             p[a] = float((double(cell[a]) + f) * dx);
                         }
                         if (!region.inside(p) || insideCut(scene, body, p)) continue;
@@ -167,8 +160,8 @@ void seedBodies(const SceneDesc& scene, World& world)
                         for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
                             taken = regions[e].inside(p);
                         if (taken) continue;
-                        world.particles.add(p, toVec3f(body.velocity), mat.density * volume,
-                                            volume, body.materialIndex, mat.initialState());
+                        world.particles.add(p, toVec3f(body.velocity), mat.density * volume, volume,
+                                            body.materialIndex, mat.initialState());
                     }
                 }
     }
@@ -176,8 +169,7 @@ void seedBodies(const SceneDesc& scene, World& world)
 
 } // namespace
 
-std::unique_ptr<World> buildWorld(const SceneDesc& scene)
-{
+std::unique_ptr<World> buildWorld(const SceneDesc& scene) {
     auto world = std::make_unique<World>();
     World& w = *world;
     w.dim = scene.simulation.dimension;
@@ -188,7 +180,9 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene)
     w.maxDt = float(scene.grid.maxDt);
     w.gravity = toVec3f(scene.simulation.gravity);
     if (w.dim == 2) w.gravity[2] = 0.f;
-    for (const MaterialDesc& m : scene.materials) w.materials.push_back(Material::fromDesc(m, w.dim));
+    w.gravityRamp = float(scene.simulation.gravityRamp);
+    for (const MaterialDesc& m : scene.materials)
+        w.materials.push_back(Material::fromDesc(m, w.dim));
     for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));
 
     w.particles.dim = w.dim;

@@ -12,18 +12,19 @@ namespace firn {
 
 namespace {
 
+// A node on a collider surface is in contact. Node positions i * dx are rounded in float, so a
+// node exactly on a plane can land one ulp outside; this tolerance keeps it in contact.
+constexpr float kContactTolerance = 1e-4f; // of dx
+
 class StageClock {
 public:
     explicit StageClock(double* sink)
         : mSink(sink)
-        , mStart(std::chrono::steady_clock::now())
-    {
-    }
-    ~StageClock()
-    {
+        , mStart(std::chrono::steady_clock::now()) {}
+    ~StageClock() {
         if (mSink)
-            *mSink += std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart)
-                          .count();
+            *mSink +=
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - mStart).count();
     }
 
 private:
@@ -31,29 +32,27 @@ private:
     std::chrono::steady_clock::time_point mStart;
 };
 
-Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d)
-{
+Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d) {
     const Mat3f t = U * d.asDiagonal() * U.transpose();
     return Sym3f{t(0, 0), t(1, 1), t(2, 2), t(0, 1), t(0, 2), t(1, 2)};
 }
 
 } // namespace
 
-double stableTimeStep(const World& world)
-{
+double stableTimeStep(const World& world) {
     const double speed = double(world.maxSpeed) + double(world.maxWaveSpeed);
     if (speed <= 0.0) return world.maxDt;
     return std::min(double(world.maxDt), double(world.cfl) * world.dx / speed);
 }
 
-void updateGridVelocity(World& world, float dt)
-{
+void updateGridVelocity(World& world, float dt) {
     Grid& grid = world.grid;
     const bool flip = world.transfer == Transfer::Flip;
     const int nk = world.dim == 3 ? kLeafDim : 1;
-    const Vec3f dv = dt * world.gravity;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](
-                                                                                const auto& r) {
+    const float ramp =
+        world.gravityRamp > 0.f ? std::min(1.f, float(world.time) / world.gravityRamp) : 1.f;
+    const Vec3f dv = (dt * ramp) * world.gravity;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
             const float* mass = grid.mass(b);
             float* vel = grid.velocity(b);
@@ -82,7 +81,7 @@ void updateGridVelocity(World& world, float dt)
                                        world.dim == 3 ? float(key[2] * kLeafDim + k) * world.dx
                                                       : 0.f);
                         for (const Collider& c : world.colliders)
-                            if (c.signedDistance(xn) <= 0.f)
+                            if (c.signedDistance(xn) <= kContactTolerance * world.dx)
                                 vn = c.applyBoundary(vn, c.normal(xn));
                         v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
                     }
@@ -90,8 +89,7 @@ void updateGridVelocity(World& world, float dt)
     });
 }
 
-void applyPlasticity(World& world)
-{
+void applyPlasticity(World& world) {
     ParticleSet& ps = world.particles;
     const int dim = world.dim;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
@@ -116,8 +114,7 @@ void applyPlasticity(World& world)
     });
 }
 
-void step(World& world, double dt, StepTimings* timings)
-{
+void step(World& world, double dt, StepTimings* timings) {
     const float dtf = static_cast<float>(dt);
     const TransferParams params{world.dim, world.dx, dtf, world.transfer, world.flipBlend};
     {

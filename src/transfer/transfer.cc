@@ -15,19 +15,17 @@ namespace {
 
 constexpr int kPad = kLeafDim + 2; // a particle leaf reaches nodes 8k .. 8k + 9
 
-template <int Dim>
-constexpr int paddedNodes()
-{
+template <int Dim> constexpr int paddedNodes() {
     return Dim == 3 ? kPad * kPad * kPad : kPad * kPad;
 }
 
-template <int Dim>
-inline int paddedIndex(int a, int b, int c)
-{
+template <int Dim> inline int paddedIndex(int a, int b, int c) {
     return Dim == 3 ? (a * kPad + b) * kPad + c : a * kPad + b;
 }
 
-inline int leafOffset(int i, int j, int k) { return (i << 6) | (j << 3) | k; }
+inline int leafOffset(int i, int j, int k) {
+    return (i << 6) | (j << 3) | k;
+}
 
 /// Weights of a particle, with the base node relative to its leaf's first node.
 struct Stencil {
@@ -36,9 +34,7 @@ struct Stencil {
     float w[3][3] = {{0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}, {0.f, 1.f, 0.f}};
 };
 
-template <int Dim>
-inline Stencil stencilOf(const Vec3f& x, float invDx, const LeafKey& leaf)
-{
+template <int Dim> inline Stencil stencilOf(const Vec3f& x, float invDx, const LeafKey& leaf) {
     Stencil s;
     for (int a = 0; a < Dim; ++a) {
         const QuadraticWeights q = quadraticWeights(x[a] * invDx);
@@ -51,9 +47,7 @@ inline Stencil stencilOf(const Vec3f& x, float invDx, const LeafKey& leaf)
 
 /// Visits the 3^Dim nodes of a stencil: fn(padded index, weight, offset node - particle in
 /// grid units).
-template <int Dim, typename Fn>
-inline void forEachNode(const Stencil& s, Fn&& fn)
-{
+template <int Dim, typename Fn> inline void forEachNode(const Stencil& s, Fn&& fn) {
     constexpr int nk = Dim == 3 ? 3 : 1;
     for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) {
@@ -72,8 +66,7 @@ inline void forEachNode(const Stencil& s, Fn&& fn)
 /// particle's contribution and, if Affine, a matrix (per metre) whose product with the node
 /// offset is added to channels AffineAt .. AffineAt + 2.
 template <int Dim, int NC, bool Affine, int AffineAt, typename ParticleFn>
-void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn&& fn)
-{
+void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn&& fn) {
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
     padded.assign(ps.leafCount() * stride, 0.f);
     const float invDx = 1.f / ps.dx;
@@ -100,18 +93,20 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn
 }
 
 /// Node ranges of the overlap of particle leaf (block - o) with block, per axis.
-inline int overlapEnd(int o, int axisBit) { return (o >> axisBit) & 1 ? 2 : kLeafDim; }
-inline int overlapShift(int o, int axisBit) { return (o >> axisBit) & 1 ? kLeafDim : 0; }
+inline int overlapEnd(int o, int axisBit) {
+    return (o >> axisBit) & 1 ? 2 : kLeafDim;
+}
+inline int overlapShift(int o, int axisBit) {
+    return (o >> axisBit) & 1 ? kLeafDim : 0;
+}
 
 /// Merge phase: every grid block sums its overlapping padded blocks in the fixed order
 /// o = 0 .. 2^Dim - 1 into acc[512 * NC], then hands it to sink(b, acc).
 template <int Dim, int NC, typename SinkFn>
-void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& sink)
-{
+void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& sink) {
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
     const auto& sources = grid.particleLeavesOfBlock();
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](
-                                                                                const auto& r) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
         std::vector<float> acc(std::size_t(kLeafNodes) * NC);
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
             std::fill(acc.begin(), acc.end(), 0.f);
@@ -124,8 +119,8 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
                     for (int j = 0; j < overlapEnd(o, 1); ++j)
                         for (int k = 0; k < kEnd; ++k) {
                             const float* s = src + NC * paddedIndex<Dim>(i + overlapShift(o, 0),
-                                                                        j + overlapShift(o, 1),
-                                                                        k + overlapShift(o, 2));
+                                                                         j + overlapShift(o, 1),
+                                                                         k + overlapShift(o, 2));
                             float* d = acc.data() + NC * leafOffset(i, j, k);
                             for (int ch = 0; ch < NC; ++ch) d[ch] += s[ch];
                         }
@@ -139,8 +134,7 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
 /// local array (10^Dim nodes), so that G2P reads without per-node block lookups.
 template <int Dim>
 void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const Grid&, std::size_t),
-                  int channels, int channelOffset, float* out)
-{
+                  int channels, int channelOffset, float* out) {
     const auto& blocks = grid.blocksOfParticleLeaf()[l];
     for (int o = 0; o < (1 << Dim); ++o) {
         const float* src = field(grid, std::size_t(blocks[o]));
@@ -150,18 +144,21 @@ void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const G
                 for (int k = 0; k < kEnd; ++k) {
                     const float* s = src + 3 * leafOffset(i, j, k) + channelOffset;
                     float* d = out + channels * paddedIndex<Dim>(i + overlapShift(o, 0),
-                                                               j + overlapShift(o, 1),
-                                                               k + overlapShift(o, 2));
+                                                                 j + overlapShift(o, 1),
+                                                                 k + overlapShift(o, 2));
                     for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
                 }
     }
 }
 
-const float* velocityField(const Grid& g, std::size_t b) { return g.velocity(b); }
-const float* auxField(const Grid& g, std::size_t b) { return g.aux(b); }
+const float* velocityField(const Grid& g, std::size_t b) {
+    return g.velocity(b);
+}
+const float* auxField(const Grid& g, std::size_t b) {
+    return g.aux(b);
+}
 
-Mat3f toMatrix(const Sym3f& t)
-{
+Mat3f toMatrix(const Sym3f& t) {
     Mat3f m;
     m << t.xx, t.xy, t.xz, t.xy, t.yy, t.yz, t.xz, t.yz, t.zz;
     return m;
@@ -169,8 +166,7 @@ Mat3f toMatrix(const Sym3f& t)
 
 template <int Dim>
 void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
-         TransferScratch& scratch)
-{
+         TransferScratch& scratch) {
     const float dInv = apicInverseD(1.f / params.dx);
     const bool apic = params.transfer == Transfer::Apic;
     // MLS force: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al. 2018, eq. 18).
@@ -178,14 +174,14 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         return Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.tau[i]));
     };
     if (params.transfer != Transfer::Flip) {
-        scatterLeaves<Dim, 4, true, 1>(ps, scratch.padded, [&](std::uint32_t i, float* value,
-                                                               Mat3f& affine) {
-            const float m = ps.mass[i];
-            value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
-            value[3] = m * ps.v[i][2];
-            affine = stressImpulse(i);
-            if (apic) affine += m * ps.C[i];
-        });
+        scatterLeaves<Dim, 4, true, 1>(
+            ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f& affine) {
+                const float m = ps.mass[i];
+                value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+                value[3] = m * ps.v[i][2];
+                affine = stressImpulse(i);
+                if (apic) affine += m * ps.C[i];
+            });
         mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
             float* mass = grid.mass(b);
             float* mom = grid.velocity(b);
@@ -198,13 +194,13 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     }
     // FLIP keeps the transferred momentum and the stress impulse apart: the grid velocity
     // before forces is the reference of the FLIP increment.
-    scatterLeaves<Dim, 7, true, 4>(ps, scratch.padded, [&](std::uint32_t i, float* value,
-                                                           Mat3f& affine) {
-        const float m = ps.mass[i];
-        value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
-        value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
-        affine = stressImpulse(i);
-    });
+    scatterLeaves<Dim, 7, true, 4>(
+        ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f& affine) {
+            const float m = ps.mass[i];
+            value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+            value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
+            affine = stressImpulse(i);
+        });
     mergeBlocks<Dim, 7>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
         float* mass = grid.mass(b);
         float* mom = grid.velocity(b);
@@ -220,8 +216,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
 }
 
 template <int Dim, bool Flip>
-float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params)
-{
+float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const float invDx = 1.f / ps.dx;
     const float cScale = apicInverseD(invDx) * ps.dx; // C = 4/dx^2 B with offsets in grid units
     const float dt = params.dt, flip = params.flipBlend;
@@ -246,8 +241,7 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params)
                     });
                     const Mat3f C = cScale * B;
                     ps.C[i] = C;
-                    ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic)
-                                   : vPic;
+                    ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic) : vPic;
                     ps.x[i] += dt * vPic;
                     ps.F[i] = (Mat3f::Identity() + dt * C) * ps.F[i];
                     const float speed = ps.v[i].norm();
@@ -263,10 +257,8 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params)
 }
 
 template <int Dim>
-VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& scratch)
-{
-    scatterLeaves<Dim, 5, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value,
-                                                            Mat3f&) {
+VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& scratch) {
+    scatterLeaves<Dim, 5, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f&) {
         const float m = ps.mass[i];
         value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
         value[3] = m * ps.v[i][2];
@@ -298,23 +290,21 @@ VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& 
 } // namespace
 
 void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
-                     TransferScratch& scratch)
-{
+                     TransferScratch& scratch) {
     if (params.dim == 2) return p2g<2>(particles, grid, params, scratch);
     p2g<3>(particles, grid, params, scratch);
 }
 
-float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params)
-{
+float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params) {
     const bool flip = params.transfer == Transfer::Flip;
-    if (params.dim == 2) return flip ? g2p<2, true>(particles, grid, params)
-                                     : g2p<2, false>(particles, grid, params);
+    if (params.dim == 2)
+        return flip ? g2p<2, true>(particles, grid, params)
+                    : g2p<2, false>(particles, grid, params);
     return flip ? g2p<3, true>(particles, grid, params) : g2p<3, false>(particles, grid, params);
 }
 
 VolumeFrame rasterizeVolumes(const ParticleSet& particles, const Grid& grid,
-                             TransferScratch& scratch)
-{
+                             TransferScratch& scratch) {
     if (particles.dim == 2) return rasterize<2>(particles, grid, scratch);
     return rasterize<3>(particles, grid, scratch);
 }

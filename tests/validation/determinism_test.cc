@@ -49,21 +49,17 @@ radius = 0.3
 velocity = [1.0, -0.5, 0.2]
 )";
 
-std::string sceneText(const std::string& transfer)
-{
+std::string sceneText(const std::string& transfer) {
     std::string s = kScene;
     s.replace(s.find("%TRANSFER%"), 10, transfer);
     return s;
 }
 
-template <typename T>
-bool sameBits(const std::vector<T>& a, const std::vector<T>& b)
-{
+template <typename T> bool sameBits(const std::vector<T>& a, const std::vector<T>& b) {
     return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
 }
 
-std::unique_ptr<World> runWithThreads(const SceneDesc& scene, int threads)
-{
+std::unique_ptr<World> runWithThreads(const SceneDesc& scene, int threads) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     auto world = buildWorld(scene);
     test::advanceTo(*world, 0.1);
@@ -71,8 +67,7 @@ std::unique_ptr<World> runWithThreads(const SceneDesc& scene, int threads)
 }
 
 /// metrics.csv without the wall_seconds column, the one thing allowed to differ.
-std::string metricsWithoutWallClock(const std::string& path)
-{
+std::string metricsWithoutWallClock(const std::string& path) {
     std::ifstream in(path);
     std::string line, out;
     int wallColumn = -1;
@@ -90,8 +85,7 @@ std::string metricsWithoutWallClock(const std::string& path)
 
 } // namespace
 
-TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[determinism]")
-{
+TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[determinism]") {
     for (const char* transfer : {"apic", "flip"}) {
         const SceneDesc scene = test::sceneFromText(sceneText(transfer), "determinism");
         auto one = runWithThreads(scene, 1);
@@ -112,8 +106,7 @@ TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[det
     }
 }
 
-TEST_CASE("metrics.csv is the same for 1 and 2 threads", "[determinism]")
-{
+TEST_CASE("metrics.csv is the same for 1 and 2 threads", "[determinism]") {
     const SceneDesc scene = test::sceneFromText(sceneText("apic"), "determinism");
     test::TempDir dir("firn-determinism");
     RunOptions options;

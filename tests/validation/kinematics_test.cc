@@ -16,28 +16,29 @@ namespace {
 constexpr double kG = 9.81;
 constexpr double kPi = 3.14159265358979323846;
 
-std::string elasticMaterial(double E, double nu, double rho)
-{
+std::string elasticMaterial(double E, double nu, double rho) {
     return "[[material]]\nname = \"block\"\nmodel = \"elastic\"\ndensity = " + std::to_string(rho) +
            "\nyoungs_modulus = " + std::to_string(E) + "\npoisson_ratio = " + std::to_string(nu) +
            "\n";
 }
 
 /// Least-squares fit s(t) = s0 + v0 t + a/2 t^2; returns a.
-double fitAcceleration(const std::vector<double>& t, const std::vector<double>& s)
-{
+double fitAcceleration(const std::vector<double>& t, const std::vector<double>& s) {
     Eigen::MatrixXd A(t.size(), 3);
     Eigen::VectorXd b(t.size());
-    for (std::size_t i = 0; i < t.size(); ++i) A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i], b[i] = s[i];
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i];
+        b[i] = s[i];
+    }
     return A.colPivHouseholderQr().solve(b)[2];
 }
 
 /// Distance travelled along the slope direction (cos th, -sin th) by the centre of mass,
 /// sampled every 0.05 s over [0.2, 1] s, then the fitted acceleration.
-double slideAcceleration(World& world, double theta, bool tiltedGravity)
-{
-    const Eigen::Vector3d down = tiltedGravity ? Eigen::Vector3d(1, 0, 0)
-                                               : Eigen::Vector3d(std::cos(theta), -std::sin(theta), 0);
+double slideAcceleration(World& world, double theta, bool tiltedGravity) {
+    const Eigen::Vector3d down = tiltedGravity
+                                     ? Eigen::Vector3d(1, 0, 0)
+                                     : Eigen::Vector3d(std::cos(theta), -std::sin(theta), 0);
     const Eigen::Vector3d c0 = computeDiagnostics(world).centreOfMass;
     std::vector<double> t, s;
     for (int k = 4; k <= 20; ++k) {
@@ -50,16 +51,19 @@ double slideAcceleration(World& world, double theta, bool tiltedGravity)
 
 /// A stiff elastic block on a Coulomb floor: either a flat floor under tilted gravity, or an
 /// inclined plane under vertical gravity with the block as a layer draped on it.
-std::unique_ptr<World> slidingBlock(double thetaDeg, double mu, bool tiltedGravity)
-{
+std::unique_ptr<World> slidingBlock(double thetaDeg, double mu, bool tiltedGravity) {
     const double th = thetaDeg * kPi / 180;
-    std::string text = "[simulation]\nname = \"slide\"\ndimension = 2\nend_time = 1.0\n";
+    // A stiff block, settled by a 0.1 s gravity ramp: without it the block bounces on its
+    // elastic base and the contact force, and so the friction, oscillates.
+    std::string text =
+        "[simulation]\nname = \"slide\"\ndimension = 2\nend_time = 1.0\ngravity_ramp = 0.1\n";
     if (tiltedGravity) {
         text += "gravity = [" + std::to_string(kG * std::sin(th)) + ", " +
                 std::to_string(-kG * std::cos(th)) + "]\n";
         text += "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n";
         text += "boundary = \"friction\"\nfriction = " + std::to_string(mu) + "\n";
-        text += "[[body]]\nmaterial = \"block\"\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [1.0, 0.25]\n";
+        text += "[[body]]\nmaterial = \"block\"\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [1.0, "
+                "0.25]\n";
     } else {
         text += "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [" +
                 std::to_string(std::sin(th)) + ", " + std::to_string(std::cos(th)) + "]\n";
@@ -68,14 +72,13 @@ std::unique_ptr<World> slidingBlock(double thetaDeg, double mu, bool tiltedGravi
                 "x_range = [0.0, 0.9]\n";
     }
     text += "[grid]\ndx = 0.05\nparticles_per_cell = 4\ncfl = 0.4\n";
-    text += elasticMaterial(1.0e6, 0.3, 1000.0);
+    text += elasticMaterial(1.0e7, 0.3, 1000.0);
     return buildWorld(test::sceneFromText(text, "slide"));
 }
 
 } // namespace
 
-TEST_CASE("V5 free fall follows the symplectic Euler parabola to float rounding", "[validation]")
-{
+TEST_CASE("V5 free fall follows the symplectic Euler parabola to float rounding", "[validation]") {
     for (const char* dimText : {"2", "3"}) {
         const bool d3 = dimText[0] == '3';
         const std::string text =
@@ -110,8 +113,7 @@ TEST_CASE("V5 free fall follows the symplectic Euler parabola to float rounding"
     }
 }
 
-TEST_CASE("V1 a block slides with a = g (sin th - mu cos th)", "[validation]")
-{
+TEST_CASE("V1 a block slides with a = g (sin th - mu cos th)", "[validation]") {
     struct Case {
         double thetaDeg, mu, expected;
     };
@@ -119,18 +121,21 @@ TEST_CASE("V1 a block slides with a = g (sin th - mu cos th)", "[validation]")
     for (const Case c : {Case{30, 0.1, 4.0554}, Case{30, 0.5, 0.6571}}) {
         for (bool tilted : {true, false}) {
             auto world = slidingBlock(c.thetaDeg, c.mu, tilted);
+            test::advanceTo(*world, 0.1);
             const double a = slideAcceleration(*world, c.thetaDeg * kPi / 180, tilted);
-            INFO("theta " << c.thetaDeg << " mu " << c.mu << (tilted ? " tilted gravity" : " inclined plane")
-                          << ": a = " << a << ", expected " << c.expected);
-            // validation.md: 3 % on the acceleration from a quadratic fit over [0.2, 1] s.
-            REQUIRE(a == Approx(c.expected).epsilon(0.03));
+            INFO("theta " << c.thetaDeg << " mu " << c.mu
+                          << (tilted ? " tilted gravity" : " inclined plane") << ": a = " << a
+                          << ", expected " << c.expected);
+            // validation.md allows 3 % and says 1 % is achievable; we measure < 0.2 % with a
+            // stiff block settled by a 0.1 s gravity ramp, so we hold the 1 % line.
+            REQUIRE(a == Approx(c.expected).epsilon(0.01));
         }
     }
 }
 
-TEST_CASE("V1 a block sticks when tan th <= mu", "[validation]")
-{
+TEST_CASE("V1 a block sticks when tan th <= mu", "[validation]") {
     auto world = slidingBlock(25, 0.5, true);
+    test::advanceTo(*world, 0.1);
     const Eigen::Vector3d c0 = computeDiagnostics(*world).centreOfMass;
     test::advanceTo(*world, 1.0);
     const double slip = computeDiagnostics(*world).centreOfMass[0] - c0[0];
@@ -139,8 +144,7 @@ TEST_CASE("V1 a block sticks when tan th <= mu", "[validation]")
     REQUIRE(std::abs(slip) < 1e-3 * 0.05);
 }
 
-TEST_CASE("V2 an elastic P-wave crosses a confined column at c_p", "[validation]")
-{
+TEST_CASE("V2 an elastic P-wave crosses a confined column at c_p", "[validation]") {
     // Snow slab of validation.md: E 5 MPa, nu 0.25, rho 250 -> c_p = 154.92 m/s. Slip walls above
     // and below make the strain uniaxial, so the wave front travels at c_p.
     const double cp = 154.92;
@@ -148,8 +152,10 @@ TEST_CASE("V2 an elastic P-wave crosses a confined column at c_p", "[validation]
         "[simulation]\nname = \"wave\"\ndimension = 2\nend_time = 1.0\ngravity = [0.0, 0.0]\n"
         "[grid]\ndx = 0.01\nparticles_per_cell = 4\ncfl = 0.3\n" +
         elasticMaterial(5.0e6, 0.25, 250.0) +
-        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\nboundary = \"slip\"\n"
-        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.05]\nnormal = [0.0, -1.0]\nboundary = \"slip\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\nboundary = "
+        "\"slip\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.05]\nnormal = [0.0, -1.0]\nboundary = "
+        "\"slip\"\n"
         "[[body]]\nmaterial = \"block\"\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [0.1, 0.05]\n"
         "velocity = [0.1, 0.0]\n"
         "[[body]]\nmaterial = \"block\"\nshape = \"box\"\nmin = [0.1, 0.0]\nmax = [2.6, 0.05]\n";
@@ -164,7 +170,8 @@ TEST_CASE("V2 an elastic P-wave crosses a confined column at c_p", "[validation]
             double mv = 0, m = 0;
             const ParticleSet& ps = world->particles;
             for (std::size_t i = 0; i < ps.size(); ++i)
-                if (std::abs(ps.x[i][0] - probes[k]) < 0.01) mv += ps.mass[i] * ps.v[i][0], m += ps.mass[i];
+                if (std::abs(ps.x[i][0] - probes[k]) < 0.01)
+                    mv += ps.mass[i] * ps.v[i][0], m += ps.mass[i];
             history[k].push_back({world->time, mv / m});
         }
     }

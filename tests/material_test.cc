@@ -1,0 +1,686 @@
+// Single-point tests of the constitutive models: Hencky elasticity, the Cam-Clay invariants and
+// yield surface, and the three return mappings (validation.md V6; snow-model.md).
+//
+// Loading paths are coaxial (fixed principal axes), so the elastic log strain after a step is
+// simply eps_elastic + d_eps: the trial strain of the next return mapping.
+#include <firn/material.h>
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+using namespace firn;
+
+namespace {
+
+/// E = 1 MPa, nu = 0.25 gives mu = lambda = 4e5 Pa exactly: easy hand computations.
+MaterialDesc roundDesc(MaterialModel model) {
+    MaterialDesc desc;
+    desc.model = model;
+    desc.density = 300.0;
+    desc.youngsModulus = 1.0e6;
+    desc.poissonRatio = 0.25;
+    return desc;
+}
+
+/// The scene-format defaults (E = 1 MPa, nu = 0.3, M = 1, beta = 0.3, xi = 5, p0 = 20 kPa,
+/// alpha = 1, M_d = 1.2) for the model.
+Material defaultMaterial(MaterialModel model, int dim) {
+    MaterialDesc desc;
+    desc.model = model;
+    return Material::fromDesc(desc, dim);
+}
+
+float bulk(const Material& m) {
+    return m.lame.bulkModulus(m.dim);
+}
+
+float p0Of(const Material& m, const PlasticState& s) {
+    return camClayP0(bulk(m), m.camClay.xi, s.hardening);
+}
+
+StressInvariants invariantsOf(const Material& m, const Vec3f& eps) {
+    return stressInvariants(kirchhoffPrincipal(m.lame, eps, m.dim), m.dim);
+}
+
+/// A unit traceless direction over the d active entries (third entry 0 in 2D).
+Vec3f deviatoricDirection(int dim, float angle = 0.3f) {
+    if (dim == 2) return Vec3f(1.f, -1.f, 0.f) / std::sqrt(2.f);
+    // Lode-angle family: any unit vector orthogonal to (1,1,1).
+    const Vec3f a = Vec3f(1.f, -1.f, 0.f) / std::sqrt(2.f);
+    const Vec3f b = Vec3f(1.f, 1.f, -2.f) / std::sqrt(6.f);
+    return std::cos(angle) * a + std::sin(angle) * b;
+}
+
+/// The principal Hencky strain with invariants (p, q) along a deviatoric direction, inverting
+/// p = -K tr(eps), q = sqrt(3/2) 2 mu |dev(eps)|.
+Vec3f strainFor(const Material& m, float p, float q, const Vec3f& devDir) {
+    const int d = m.dim;
+    Vec3f eps = devDir * (q / (std::sqrt(1.5f) * 2.f * m.lame.mu));
+    for (int i = 0; i < d; ++i) eps[i] += -p / (bulk(m) * float(d));
+    return eps;
+}
+
+/// q on the Cam-Clay surface at pressure p: the root of eq. (1), validation.md V6.
+float yieldQ(float p, float p0, float M, float beta) {
+    return M * std::sqrt(std::max((p + beta * p0) * (p0 - p), 0.f) / (1.f + 2.f * beta));
+}
+
+float traceOf(const Vec3f& eps, int dim) {
+    float tr = 0.f;
+    for (int i = 0; i < dim; ++i) tr += eps[i];
+    return tr;
+}
+
+/// Isotropic strain increment of volume change dV (tr = dV over the d active entries).
+Vec3f isotropic(int dim, float dV) {
+    Vec3f e = Vec3f::Zero();
+    for (int i = 0; i < dim; ++i) e[i] = dV / float(dim);
+    return e;
+}
+
+} // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Parameters and elasticity
+
+TEST_CASE("Lame parameters from Young's modulus and Poisson's ratio", "[material]") {
+    // mu = E / (2 (1 + nu)), lambda = E nu / ((1 + nu)(1 - 2 nu)); exact in float up to 1 ulp.
+    const Lame lame = Lame::fromYoungPoisson(1.0e6, 0.25);
+    CHECK(lame.mu == Approx(4.0e5).epsilon(1e-7));
+    CHECK(lame.lambda == Approx(4.0e5).epsilon(1e-7));
+    CHECK(lame.bulkModulus(3) == Approx(4.0e5 + 8.0e5 / 3.0).epsilon(1e-7));
+    CHECK(lame.bulkModulus(2) == Approx(8.0e5).epsilon(1e-7));
+}
+
+TEST_CASE("Material::fromDesc copies every parameter", "[material]") {
+    MaterialDesc desc;
+    desc.model = MaterialModel::WeakLayer;
+    desc.density = 150.0;
+    desc.criticalStateSlope = 1.1;
+    desc.cohesionRatio = 0.2;
+    desc.initialP0 = 1.5e3;
+    desc.hardening = 1.6;
+    desc.softening = 0.1;
+    desc.dynamicCriticalStateSlope = 1.4;
+    desc.frictionAngle = 35.0;
+    const Material m = Material::fromDesc(desc, 2);
+    CHECK(m.model == MaterialModel::WeakLayer);
+    CHECK(m.dim == 2);
+    CHECK(m.density == 150.f);
+    CHECK(m.camClay.M == 1.1f);
+    CHECK(m.camClay.beta == 0.2f);
+    CHECK(m.camClay.p0Initial == 1.5e3f);
+    CHECK(m.camClay.xi == 1.6f);
+    CHECK(m.camClay.alpha == 0.1f);
+    CHECK(m.camClay.Md == 1.4f);
+    CHECK(m.frictionAngleDeg == 35.f);
+}
+
+TEST_CASE("P-wave speed", "[material]") {
+    // sqrt((lambda + 2 mu) / rho) = sqrt(1.2e6 / 300) = sqrt(4000) = 63.2456 m/s; float: 1e-6.
+    const Material m = Material::fromDesc(roundDesc(MaterialModel::Elastic), 3);
+    CHECK(m.pWaveSpeed() == Approx(std::sqrt(4000.0)).epsilon(1e-6));
+}
+
+TEST_CASE("Hencky stress and energy at one point, by hand", "[material]") {
+    // mu = lambda = 4e5 Pa. Tolerance 1e-6 relative: a handful of float operations on values
+    // known to 7 digits.
+    const Lame lame = Lame::fromYoungPoisson(1.0e6, 0.25);
+    SECTION("3D") {
+        // eps = (0.01, -0.02, 0.005), tr = -0.005, lambda tr = -2000 Pa
+        // tau = 2 mu eps + lambda tr = (8000 - 2000, -16000 - 2000, 4000 - 2000)
+        //     = (6000, -18000, 2000) Pa
+        // p = -(6000 - 18000 + 2000) / 3 = 3333.33 Pa
+        // s = tau + p = (9333.33, -14666.67, 5333.33), s:s = 3.306667e8, q = sqrt(1.5 s:s)
+        //   = sqrt(4.96e8) = 22271.05 Pa
+        // energy = mu |eps|^2 + lambda/2 tr^2 = 4e5 * 5.25e-4 + 2e5 * 2.5e-5 = 210 + 5 = 215
+        const Vec3f eps(0.01f, -0.02f, 0.005f);
+        const Vec3f tau = kirchhoffPrincipal(lame, eps, 3);
+        CHECK(tau[0] == Approx(6000.0).epsilon(1e-6));
+        CHECK(tau[1] == Approx(-18000.0).epsilon(1e-6));
+        CHECK(tau[2] == Approx(2000.0).epsilon(1e-6));
+        const StressInvariants inv = stressInvariants(tau, 3);
+        CHECK(inv.p == Approx(10000.0 / 3.0).epsilon(1e-6));
+        CHECK(inv.q == Approx(std::sqrt(4.96e8)).epsilon(1e-6));
+        CHECK(henckyEnergy(lame, eps, 3) == Approx(215.0).epsilon(1e-6));
+    }
+    SECTION("2D ignores the third entry") {
+        // eps = (0.01, -0.02), tr = -0.01: tau = (8000 - 4000, -16000 - 4000) = (4000, -20000)
+        // p = 8000, s = (12000, -12000), s:s = 2.88e8, q = sqrt(4.32e8) = 20784.61 Pa
+        // energy = 4e5 * 5e-4 + 2e5 * 1e-4 = 200 + 20 = 220
+        const Vec3f eps(0.01f, -0.02f, 0.7f); // 0.7 must not matter
+        const Vec3f tau = kirchhoffPrincipal(lame, eps, 2);
+        CHECK(tau[0] == Approx(4000.0).epsilon(1e-6));
+        CHECK(tau[1] == Approx(-20000.0).epsilon(1e-6));
+        CHECK(tau[2] == 0.f);
+        const StressInvariants inv = stressInvariants(tau, 2);
+        CHECK(inv.p == Approx(8000.0).epsilon(1e-6));
+        CHECK(inv.q == Approx(std::sqrt(4.32e8)).epsilon(1e-6));
+        CHECK(henckyEnergy(lame, eps, 2) == Approx(220.0).epsilon(1e-6));
+    }
+}
+
+TEST_CASE("Invariants from strain: p = -K tr(eps), q = sqrt(3/2) 2 mu |dev eps|", "[material]") {
+    // The identity the return mappings rely on; float round-off only: 1e-5 relative.
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<float> u(-0.05f, 0.05f);
+    const Lame lame = Lame::fromYoungPoisson(5.0e6, 0.3);
+    for (int dim : {2, 3}) {
+        for (int k = 0; k < 200; ++k) {
+            Vec3f eps(u(rng), u(rng), dim == 3 ? u(rng) : 0.f);
+            const StressInvariants inv = stressInvariants(kirchhoffPrincipal(lame, eps, dim), dim);
+            const float tr = traceOf(eps, dim);
+            Vec3f dev = eps;
+            for (int i = 0; i < dim; ++i) dev[i] -= tr / float(dim);
+            const float scale = lame.bulkModulus(dim) * eps.norm();
+            CHECK(std::abs(inv.p + lame.bulkModulus(dim) * tr) <= 1e-5f * scale);
+            CHECK(std::abs(inv.q - std::sqrt(1.5f) * 2.f * lame.mu * dev.norm()) <= 1e-5f * scale);
+        }
+    }
+}
+
+TEST_CASE("Cam-Clay yield surface: tips and peak (V6 closed forms)", "[material][camclay]") {
+    const float p0 = 2.0e4f, M = 1.f, beta = 0.3f;
+    const float tol = 1e-6f * p0 * p0; // y is O(p0^2); float round-off ~1e-7 of that
+    // Tips: y(-beta p0, 0) = y(p0, 0) = 0.
+    CHECK(std::abs(camClayYield(-beta * p0, 0.f, p0, M, beta)) <= tol);
+    CHECK(std::abs(camClayYield(p0, 0.f, p0, M, beta)) <= tol);
+    // Peak q_max = M p0 (1 + beta) / (2 sqrt(1 + 2 beta)) at p_c = p0 (1 - beta) / 2.
+    const float pc = p0 * (1.f - beta) / 2.f;
+    const float qMax = M * p0 * (1.f + beta) / (2.f * std::sqrt(1.f + 2.f * beta));
+    CHECK(std::abs(camClayYield(pc, qMax, p0, M, beta)) <= tol);
+    CHECK(camClayYield(pc, 1.001f * qMax, p0, M, beta) > 0.f);
+    CHECK(camClayYield(pc, 0.999f * qMax, p0, M, beta) < 0.f);
+    // ... and it is the top of the ellipse: at any other p, (p, q_max) is outside.
+    for (float p = -beta * p0; p <= p0; p += 0.01f * p0)
+        if (std::abs(p - pc) > 0.02f * p0) CHECK(camClayYield(p, qMax, p0, M, beta) > 0.f);
+}
+
+TEST_CASE("Hardening law eq. (2) and the initial state", "[material][camclay]") {
+    for (MaterialModel model : {MaterialModel::Snow, MaterialModel::WeakLayer}) {
+        for (int dim : {2, 3}) {
+            const Material m = defaultMaterial(model, dim);
+            const PlasticState s = m.initialState();
+            // p0 = initial_p0 through eq. (2): the float offset is good to ~1e-7 relative, and
+            // sinh is linear here, so p0 to 1e-5.
+            CHECK(s.hardening < 0.f);
+            CHECK(p0Of(m, s) == Approx(m.camClay.p0Initial).epsilon(1e-5));
+            CHECK(s.epsV == 0.f);
+            CHECK(s.eta == 0.f);
+            CHECK(s.flags == 0u);
+        }
+    }
+    const Material g = defaultMaterial(MaterialModel::Granular, 3);
+    CHECK(g.initialState().hardening == 0.f);
+    // Dilated states have no strength; huge compaction stays finite.
+    CHECK(camClayP0(1e6f, 5.f, 0.01f) == 0.f);
+    CHECK(camClayP0(1e6f, 5.f, 0.f) == 0.f);
+    CHECK(std::isfinite(camClayP0(1e9f, 50.f, -100.f)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cam-Clay return mapping (snow), V6. Every test runs in 2D and 3D.
+
+TEST_CASE("Cam-Clay: states inside the surface stay elastic", "[material][camclay]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        const PlasticState s0 = m.initialState();
+        const float p0 = p0Of(m, s0), M = m.camClay.M, beta = m.camClay.beta;
+        std::mt19937 rng(11 + dim);
+        std::uniform_real_distribution<float> up(-beta * p0, p0), uf(0.f, 0.999f), ua(0.f, 6.3f);
+        for (int k = 0; k < 1000; ++k) {
+            const float p = up(rng);
+            const float q = uf(rng) * yieldQ(p, p0, M, beta);
+            const Vec3f eps = strainFor(m, p, q, deviatoricDirection(dim, ua(rng)));
+            if (camClayYield(p, q, p0, M, beta) > -1e-4f * p0 * p0) continue; // too close to call
+            const ReturnMapResult r = returnMapCamClay(m, eps, s0);
+            CHECK(r.eps == eps);
+            CHECK(r.state.hardening == s0.hardening);
+            CHECK(r.state.epsV == 0.f);
+            CHECK(r.state.flags == 0u);
+        }
+    }
+}
+
+TEST_CASE("Cam-Clay: shear at constant p yields at q_y(p)", "[material][camclay]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        const PlasticState s0 = m.initialState();
+        const float p0 = p0Of(m, s0), M = m.camClay.M, beta = m.camClay.beta;
+        for (float f = -0.95f; f <= 0.951f; f += 0.05f) {
+            // p across the open interval (-beta p0, p0).
+            const float p = 0.5f * (1.f - beta) * p0 + f * 0.5f * (1.f + beta) * p0;
+            const float qy = yieldQ(p, p0, M, beta);
+            INFO("p = " << p << ", q_y = " << qy);
+            // Just inside: elastic.
+            const Vec3f inside = strainFor(m, p, 0.99f * qy, deviatoricDirection(dim));
+            CHECK(returnMapCamClay(m, inside, s0).state.flags == 0u);
+            // Outside: p kept, q brought to q_y, no plastic volume change, flagged. Tolerances
+            // 1e-5 p0: float round-off of strains ~p0/K rebuilt from (p, q).
+            const Vec3f trial = strainFor(m, p, 1.5f * qy + 0.1f * p0, deviatoricDirection(dim));
+            const ReturnMapResult r = returnMapCamClay(m, trial, s0);
+            const StressInvariants inv = invariantsOf(m, r.eps);
+            CHECK(std::abs(inv.p - p) <= 1e-5f * p0);
+            CHECK(std::abs(inv.q - qy) <= 1e-5f * p0);
+            CHECK(r.state.hardening == s0.hardening);
+            CHECK(r.state.epsV == 0.f);
+            CHECK(r.state.flags == kFlagFailed);
+            // Still the same deviatoric direction.
+            const Vec3f dev = strainFor(m, 0.f, 1.f, deviatoricDirection(dim));
+            Vec3f devNew = r.eps - isotropic(dim, traceOf(r.eps, dim));
+            CHECK(devNew.normalized().dot(dev.normalized()) == Approx(1.f).epsilon(1e-5));
+        }
+        // At the centre p_c the returned q is the peak q_max of V6.
+        const float pc = p0 * (1.f - beta) / 2.f;
+        const float qMax = M * p0 * (1.f + beta) / (2.f * std::sqrt(1.f + 2.f * beta));
+        const ReturnMapResult r =
+            returnMapCamClay(m, strainFor(m, pc, 3.f * qMax, deviatoricDirection(dim)), s0);
+        CHECK(invariantsOf(m, r.eps).q == Approx(qMax).epsilon(1e-5));
+    }
+}
+
+TEST_CASE("Cam-Clay: tips", "[material][camclay]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        const PlasticState s0 = m.initialState();
+        const float p0 = p0Of(m, s0), beta = m.camClay.beta;
+        // Tolerance 1e-5 p0: float round-off of an isotropic strain ~p0/K.
+        SECTION("compressive tip, with and without shear") {
+            for (float q : {0.f, 0.3f * p0, 3.f * p0}) {
+                const ReturnMapResult r =
+                    returnMapCamClay(m, strainFor(m, 1.5f * p0, q, deviatoricDirection(dim)), s0);
+                const StressInvariants inv = invariantsOf(m, r.eps);
+                CHECK(std::abs(inv.p - p0) <= 1e-5f * p0);
+                CHECK(inv.q <= 1e-5f * p0);
+                CHECK(r.state.flags == kFlagFailed);
+                // eps_V^P change = tr(trial) - tr(tip) = (-1.5 p0 + p0) / K < 0: compaction.
+                CHECK(r.state.epsV == Approx(-0.5f * p0 / bulk(m)).epsilon(1e-4));
+                CHECK(p0Of(m, r.state) > p0);
+            }
+        }
+        SECTION("tensile tip, with and without shear") {
+            for (float q : {0.f, 0.3f * p0, 3.f * p0}) {
+                const ReturnMapResult r = returnMapCamClay(
+                    m, strainFor(m, -2.f * beta * p0, q, deviatoricDirection(dim)), s0);
+                const StressInvariants inv = invariantsOf(m, r.eps);
+                CHECK(std::abs(inv.p + beta * p0) <= 1e-5f * p0);
+                CHECK(inv.q <= 1e-5f * p0);
+                CHECK(r.state.flags == kFlagFailed);
+                CHECK(r.state.epsV == Approx(beta * p0 / bulk(m)).epsilon(1e-4)); // dilation
+                CHECK(p0Of(m, r.state) < p0);                                     // softens
+            }
+        }
+    }
+}
+
+TEST_CASE("Cam-Clay: after any return mapping the state is on or inside the surface",
+          "[material][camclay]") {
+    // V6: |y| <= 1e-5 p0^2 after a plastic return (y is O(p0^2) and carries float round-off of
+    // p and q, ~1e-7 relative each), y <= 1e-5 p0^2 after an elastic one, and no plastic flow
+    // for trial states inside. y is measured against the surface the state was projected onto,
+    // i.e. p0 at the start of the step (hardening is explicit, as in the authors' codes).
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        const float M = m.camClay.M, beta = m.camClay.beta;
+        std::mt19937 rng(1000 + dim);
+        std::uniform_real_distribution<float> uh(-0.01f, -0.0001f), up(-2.f, 3.f), uq(0.f, 3.f),
+            ua(0.f, 6.3f);
+        int plastic = 0;
+        for (int k = 0; k < 20000; ++k) {
+            PlasticState s = m.initialState();
+            s.hardening = uh(rng); // p0 from ~40 Pa to ~45 kPa
+            const float p0 = p0Of(m, s);
+            const Vec3f trial =
+                strainFor(m, up(rng) * p0, uq(rng) * p0, deviatoricDirection(dim, ua(rng)));
+            const StressInvariants in = invariantsOf(m, trial);
+            const ReturnMapResult r = returnMapCamClay(m, trial, s);
+            const StressInvariants out = invariantsOf(m, r.eps);
+            const float y = camClayYield(out.p, out.q, p0, M, beta);
+            INFO("p0 = " << p0 << ", trial (p, q) = (" << in.p << ", " << in.q << ")");
+            if (r.state.flags & kFlagFailed) {
+                ++plastic;
+                CHECK(std::abs(y) <= 1e-5f * p0 * p0);
+            } else {
+                CHECK(y <= 1e-5f * p0 * p0);
+                CHECK(r.eps == trial);
+            }
+            if (camClayYield(in.p, in.q, p0, M, beta) < -1e-4f * p0 * p0)
+                CHECK((r.state.flags & kFlagFailed) == 0u);
+            CHECK(std::isfinite(r.state.hardening));
+        }
+        CHECK(plastic > 5000); // the sample did exercise the plastic branches
+    }
+}
+
+TEST_CASE("Cam-Clay: isotropic compression hardens along eq. (2), unloading is elastic",
+          "[material][camclay]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        const float K = bulk(m), xi = m.camClay.xi;
+        PlasticState s = m.initialState();
+        Vec3f eps = Vec3f::Zero();
+        const float h0 = s.hardening;
+        double totalVolume = 0.0;
+        float p0Prev = p0Of(m, s);
+        int yieldSteps = 0;
+        for (int step = 0; step < 200; ++step) {
+            const Vec3f dEps = isotropic(dim, -1e-3f); // tr(d eps) = -1e-3 per step
+            totalVolume += traceOf(dEps, dim);
+            const Vec3f trial = eps + dEps;
+            const float p0Before = p0Of(m, s);
+            const ReturnMapResult r = returnMapCamClay(m, trial, s);
+            const StressInvariants inv = invariantsOf(m, r.eps);
+            if (r.eps != trial) { // plastic in this step
+                ++yieldSteps;
+                CHECK(r.state.flags == kFlagFailed);
+                // The state sits at the compressive tip of the surface it was projected on.
+                CHECK(inv.p == Approx(p0Before).epsilon(1e-5));
+                CHECK(inv.q <= 1e-5f * p0Before);
+                const float p0 = p0Of(m, r.state);
+                CHECK(p0 > p0Prev); // compaction hardens
+                p0Prev = p0;
+            } else {
+                CHECK(inv.p <= p0Before); // elastic only while inside
+            }
+            // eps_V^P = h0 + (total volume - elastic volume) at all times. Tolerance 1e-6
+            // absolute: ~200 float additions of O(1e-3) increments into |h| < 0.05 (ulp 4e-9).
+            const double elasticVolume = traceOf(r.eps, dim);
+            CHECK(r.state.hardening == Approx(h0 + totalVolume - elasticVolume).margin(1e-6));
+            CHECK(r.state.epsV == Approx(r.state.hardening - h0).margin(1e-6));
+            // p0 follows eq. (2) (same float expression: 1e-6 relative).
+            CHECK(p0Of(m, r.state) ==
+                  Approx(K * std::sinh(xi * std::max(-r.state.hardening, 0.f))).epsilon(1e-6));
+            eps = r.eps;
+            s = r.state;
+        }
+        CHECK(yieldSteps > 50);
+        CHECK(p0Of(m, s) > 3.f * m.camClay.p0Initial);
+
+        // Unloading: isotropic extension in small steps down to p = 0 is elastic and leaves
+        // the plastic volume frozen.
+        const PlasticState frozen = s;
+        const float pStart = invariantsOf(m, eps).p;
+        for (int step = 0; step < 10; ++step) {
+            const Vec3f trial = eps + isotropic(dim, 0.1f * pStart / K);
+            const ReturnMapResult r = returnMapCamClay(m, trial, s);
+            CHECK(r.eps == trial);
+            CHECK(r.state.hardening == frozen.hardening);
+            CHECK(r.state.epsV == frozen.epsV);
+            eps = r.eps;
+            s = r.state;
+        }
+        CHECK(std::abs(invariantsOf(m, eps).p) <= 1e-4f * pStart);
+    }
+}
+
+TEST_CASE("Cam-Clay: tension softens p0 to zero", "[material][camclay]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::Snow, dim);
+        PlasticState s = m.initialState();
+        Vec3f eps = Vec3f::Zero();
+        float p0Prev = p0Of(m, s);
+        bool yielded = false;
+        for (int step = 0; step < 200 && p0Prev > 0.f; ++step) {
+            const Vec3f trial = eps + isotropic(dim, 1e-3f);
+            const ReturnMapResult r = returnMapCamClay(m, trial, s);
+            if (r.eps != trial) { // plastic in this step
+                yielded = true;
+                // At the tensile tip of the surface it was projected on (1e-5 p0 as above).
+                CHECK(std::abs(invariantsOf(m, r.eps).p + m.camClay.beta * p0Prev) <=
+                      1e-5f * m.camClay.p0Initial);
+                CHECK(r.state.epsV > s.epsV); // dilation
+                const float p0 = p0Of(m, r.state);
+                CHECK(p0 < p0Prev);
+                p0Prev = p0;
+            }
+            eps = r.eps;
+            s = r.state;
+        }
+        CHECK(yielded);
+        CHECK(p0Prev == 0.f);
+        CHECK(s.hardening >= 0.f);
+        // With no strength left: zero stress under tension, and compaction hardens again.
+        const ReturnMapResult t = returnMapCamClay(m, eps + isotropic(dim, 1e-3f), s);
+        CHECK(t.eps.norm() == 0.f);
+        PlasticState c = t.state;
+        Vec3f e = t.eps;
+        for (int step = 0; step < 50; ++step) {
+            const ReturnMapResult r = returnMapCamClay(m, e + isotropic(dim, -2e-3f), c);
+            CHECK(std::isfinite(r.eps.norm()));
+            e = r.eps;
+            c = r.state;
+        }
+        CHECK(p0Of(m, c) > 0.f);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Weak layer: softening with the anticrack strain (eqs. 3-4), then eq. (5).
+
+TEST_CASE("Weak layer: compression softens to collapse, then compacts frictionally",
+          "[material][weaklayer]") {
+    // Under strain control the softening branch has slope dp/d(tr eps) ~ K (1 - 1/(alpha xi))
+    // (small-strain form of eqs. 3-4): for alpha xi < 1 the layer softens gradually, for
+    // alpha xi > 1 (the defaults: 1 x 5) it snaps back and collapses within a few steps.
+    for (const float alpha : {0.1f, 1.f})
+        for (int dim : {2, 3}) {
+            INFO("dim = " << dim << ", alpha = " << alpha);
+            Material m = defaultMaterial(MaterialModel::WeakLayer, dim);
+            m.camClay.alpha = alpha;
+            const PlasticState s0 = m.initialState();
+            const float eta0 = s0.hardening;
+            PlasticState s = s0;
+            Vec3f eps = Vec3f::Zero();
+            float p0Prev = p0Of(m, s);
+            int step = 0, softeningSteps = 0;
+            bool softening = false;
+            // Compression at 2e-4 per step until collapse: p0 falls with eta, eq. (3).
+            for (; step < 5000 && !(s.flags & kFlagCollapsed); ++step) {
+                const ReturnMapResult r = returnMapWeakLayer(m, eps + isotropic(dim, -2e-4f), s);
+                if (!softening) {
+                    // Before the first yield: eta output exactly 0, no flags.
+                    CHECK(s.eta == 0.f);
+                    CHECK(s.flags == 0u);
+                }
+                if (r.state.flags & kFlagFailed) {
+                    softening = true;
+                    CHECK(r.state.eta > s.eta);   // anticrack strain grows
+                    CHECK(r.state.epsV < s.epsV); // compaction
+                    if (!(r.state.flags & kFlagCollapsed)) {
+                        ++softeningSteps;
+                        CHECK(p0Of(m, r.state) < p0Prev); // softening, eq. (3)
+                        // eta output is eta - eta0 (float: 1e-5 of |eta0|)
+                        CHECK(r.state.eta ==
+                              Approx(r.state.hardening - eta0).margin(1e-5f * -eta0));
+                        // d eta = alpha |d eps_V^P|, eq. (4). eta is a float of magnitude
+                        // |eta0| ~ 5e-3 (ulp 5e-10), so tiny increments are quantised:
+                        // 1e-4 relative plus 1e-6 |eta0| absolute.
+                        CHECK(r.state.eta - s.eta ==
+                              Approx(m.camClay.alpha * (s.epsV - r.state.epsV))
+                                  .epsilon(1e-4)
+                                  .margin(1e-6f * -eta0));
+                        p0Prev = p0Of(m, r.state);
+                    }
+                }
+                eps = r.eps;
+                s = r.state;
+            }
+            REQUIRE((s.flags & kFlagCollapsed) != 0u);
+            CHECK(softeningSteps >= (alpha * m.camClay.xi < 1.f ? 10 : 1));
+            CHECK((s.flags & kFlagFailed) != 0u);
+            CHECK(s.hardening == 0.f);                   // eps_V^P restarts at t_c
+            CHECK(s.eta == Approx(-eta0).epsilon(1e-5)); // frozen at -eta0: p0 reached 0
+            CHECK(p0Of(m, s) == 0.f);
+            const float etaFrozen = s.eta;
+
+            // Collapsed, p0 = 0, beta = 0: the surface is the origin; continued compression goes to
+            // zero stress first, then compaction hardens p0 again by eq. (2).
+            p0Prev = 0.f;
+            for (int k = 0; k < 100; ++k) {
+                const ReturnMapResult r = returnMapWeakLayer(m, eps + isotropic(dim, -2e-3f), s);
+                const StressInvariants inv = invariantsOf(m, r.eps);
+                CHECK(std::isfinite(inv.p));
+                if ((r.state.flags & kFlagCollapsed) && r.state.epsV < s.epsV) {
+                    CHECK(inv.p == Approx(p0Of(m, s)).margin(1e-5f * m.camClay.p0Initial));
+                    CHECK(p0Of(m, r.state) > p0Prev);
+                    p0Prev = p0Of(m, r.state);
+                }
+                CHECK(r.state.eta == etaFrozen); // eta is frozen after collapse
+                eps = r.eps;
+                s = r.state;
+            }
+            CHECK(p0Of(m, s) > 0.1f * m.camClay.p0Initial); // compacted, carries load again
+
+            // Frictional surface of eq. (5): q_y = M_d sqrt(p (p0 - p)), no tensile strength.
+            const float p0 = p0Of(m, s), Md = m.camClay.Md;
+            for (float f : {0.1f, 0.3f, 0.5f, 0.8f}) {
+                const float p = f * p0, qy = Md * std::sqrt(p * (p0 - p));
+                const ReturnMapResult in =
+                    returnMapWeakLayer(m, strainFor(m, p, 0.99f * qy, deviatoricDirection(dim)), s);
+                CHECK(in.state.epsV == s.epsV);
+                CHECK(in.state.hardening == s.hardening);
+                const ReturnMapResult out =
+                    returnMapWeakLayer(m, strainFor(m, p, 2.f * qy, deviatoricDirection(dim)), s);
+                const StressInvariants inv = invariantsOf(m, out.eps);
+                CHECK(std::abs(inv.p - p) <= 1e-5f * p0);
+                CHECK(std::abs(inv.q - qy) <= 1e-5f * p0);
+                CHECK(std::abs(inv.q * inv.q + Md * Md * (inv.p * inv.p - inv.p * p0)) <=
+                      1e-5f * p0 * p0);
+            }
+            // Any tension: to the origin (beta = 0).
+            const ReturnMapResult t = returnMapWeakLayer(
+                m, strainFor(m, -0.1f * p0, 0.2f * p0, deviatoricDirection(dim)), s);
+            CHECK(invariantsOf(m, t.eps).p == Approx(0.f).margin(1e-5f * p0));
+            CHECK(invariantsOf(m, t.eps).q == Approx(0.f).margin(1e-5f * p0));
+        }
+}
+
+TEST_CASE("Weak layer: elastic inside, failed flag and eta on first yield",
+          "[material][weaklayer]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = defaultMaterial(MaterialModel::WeakLayer, dim);
+        const PlasticState s0 = m.initialState();
+        const float p0 = p0Of(m, s0);
+        // Inside: nothing changes.
+        const Vec3f inside = strainFor(m, 0.5f * p0, 0.1f * p0, deviatoricDirection(dim));
+        const ReturnMapResult r0 = returnMapWeakLayer(m, inside, s0);
+        CHECK(r0.eps == inside);
+        CHECK(r0.state.flags == 0u);
+        CHECK(r0.state.eta == 0.f);
+        // Shear yield at constant p: flagged, but no volume change so no softening (eq. 4).
+        const Vec3f shear = strainFor(m, 0.5f * p0, 2.f * p0, deviatoricDirection(dim));
+        const ReturnMapResult r1 = returnMapWeakLayer(m, shear, s0);
+        CHECK(r1.state.flags == kFlagFailed);
+        CHECK(r1.state.eta == 0.f);
+        // Tension past the tip also softens: any plastic volume change, eq. (4). (Not too far
+        // past: a plastic volume change above |eta0| / alpha collapses the layer in one step.)
+        const Vec3f tension = strainFor(m, -0.35f * p0, 0.f, deviatoricDirection(dim));
+        const ReturnMapResult r2 = returnMapWeakLayer(m, tension, s0);
+        CHECK(r2.state.flags == kFlagFailed);
+        CHECK(r2.state.eta > 0.f);
+        CHECK(r2.state.epsV > 0.f);
+        CHECK(p0Of(m, r2.state) < p0);
+        // Dispatch.
+        const ReturnMapResult r3 = returnMap(m, tension, s0);
+        CHECK(r3.eps == r2.eps);
+        CHECK(r3.state.eta == r2.state.eta);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Drucker-Prager (granular), Klar et al. 2016 sec. 7.3.
+
+namespace {
+
+/// delta gamma of Klar et al. 2016 sec. 7.3: > 0 outside the cone, <= 0 inside.
+float dpDeltaGamma(const Material& m, const Vec3f& eps) {
+    const int d = m.dim;
+    const float sinPhi = std::sin(m.frictionAngleDeg * 3.14159265f / 180.f);
+    const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
+    const float tr = traceOf(eps, d);
+    Vec3f dev = eps - isotropic(d, tr);
+    return dev.norm() +
+           (float(d) * m.lame.lambda + 2.f * m.lame.mu) / (2.f * m.lame.mu) * tr * alpha;
+}
+
+} // namespace
+
+TEST_CASE("Drucker-Prager: inside stays, outside lands on the cone, tension to the apex",
+          "[material][druckerprager]") {
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = Material::fromDesc(roundDesc(MaterialModel::Granular), dim);
+        const PlasticState s0 = m.initialState();
+        std::mt19937 rng(77 + dim);
+        std::uniform_real_distribution<float> ut(-0.02f, 0.f), ud(0.f, 0.05f), ua(0.f, 6.3f);
+        int inside = 0, outside = 0;
+        for (int k = 0; k < 2000; ++k) {
+            const float tr = ut(rng);
+            const Vec3f trial = isotropic(dim, tr) + ud(rng) * deviatoricDirection(dim, ua(rng));
+            const float dGamma = dpDeltaGamma(m, trial);
+            const ReturnMapResult r = returnMapDruckerPrager(m, trial, s0);
+            if (dGamma <= 0.f) {
+                ++inside;
+                CHECK(r.eps == trial);
+                CHECK(r.state.flags == 0u);
+            } else {
+                ++outside;
+                // On the cone: delta gamma = 0 after, to 1e-5 of the strain (float round-off
+                // of |dev| and tr, each ~1e-7 relative).
+                CHECK(std::abs(dpDeltaGamma(m, r.eps)) <= 1e-5f * trial.norm());
+                // Pressure kept (radial return in the deviatoric plane), direction kept. The
+                // trace carries round-off of the entries, ~1e-7 |eps|: 1e-6 |eps|.
+                CHECK(traceOf(r.eps, dim) ==
+                      Approx(traceOf(trial, dim)).margin(1e-6f * trial.norm()));
+                const Vec3f devIn = trial - isotropic(dim, tr);
+                const Vec3f devOut = r.eps - isotropic(dim, traceOf(r.eps, dim));
+                CHECK(devOut.normalized().dot(devIn.normalized()) == Approx(1.f).epsilon(1e-5));
+                CHECK(r.state.flags == kFlagFailed);
+                CHECK(r.state.epsV == 0.f);
+            }
+        }
+        CHECK(inside > 100);
+        CHECK(outside > 100);
+
+        // Tension (and zero-pressure shear) goes to the apex: zero stress.
+        for (float tr : {0.f, 1e-4f, 0.01f}) {
+            const Vec3f trial = isotropic(dim, tr) + 0.01f * deviatoricDirection(dim);
+            const ReturnMapResult r = returnMapDruckerPrager(m, trial, s0);
+            CHECK(r.eps == Vec3f::Zero());
+            CHECK(r.state.flags == kFlagFailed);
+            CHECK(r.state.epsV == Approx(tr).margin(1e-7));
+        }
+        // Dispatch.
+        const Vec3f trial = isotropic(dim, -0.001f) + 0.05f * deviatoricDirection(dim);
+        CHECK(returnMap(m, trial, s0).eps == returnMapDruckerPrager(m, trial, s0).eps);
+    }
+}
+
+TEST_CASE("Elastic material: returnMap leaves everything alone", "[material]") {
+    const Material m = Material::fromDesc(roundDesc(MaterialModel::Elastic), 3);
+    const Vec3f trial(0.3f, -0.2f, 0.5f);
+    const ReturnMapResult r = returnMap(m, trial, m.initialState());
+    CHECK(r.eps == trial);
+    CHECK(r.state.flags == 0u);
+    CHECK(r.state.hardening == 0.f);
+}
+
+TEST_CASE("Snow dispatch and a NaN trial stays NaN (no silent repair)", "[material][camclay]") {
+    const Material m = defaultMaterial(MaterialModel::Snow, 3);
+    const Vec3f trial = strainFor(m, 2.f * m.camClay.p0Initial, 0.f, deviatoricDirection(3));
+    CHECK(returnMap(m, trial, m.initialState()).eps ==
+          returnMapCamClay(m, trial, m.initialState()).eps);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    const ReturnMapResult r = returnMapCamClay(m, Vec3f(nan, 0.f, 0.f), m.initialState());
+    CHECK(std::isnan(r.eps[0]));
+}
