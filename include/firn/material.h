@@ -97,6 +97,11 @@ ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
 ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
                                        const PlasticState& state);
 
+/// True when a strain with trace `trEps` and deviatoric norm `devNorm` (over the d x d block)
+/// lies strictly inside the current yield surface of the particle, so that the return mapping
+/// would change nothing. Lets the solver skip the principal decomposition for most particles.
+bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticState& state);
+
 /// Dispatch on m.model; Elastic returns the input unchanged.
 ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state);
 

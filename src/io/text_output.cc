@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
+#include <string_view>
 #include <system_error>
 
 namespace firn {
@@ -77,41 +78,23 @@ std::string csvLine(const std::vector<std::string>& cells) {
 }
 
 std::string jsonString(const std::string& s) {
+    // JSON's two-character escapes (RFC 8259, section 7); other control characters as \u00XX.
+    constexpr std::string_view kRaw = "\"\\\b\f\n\r\t", kEscaped = "\"\\bfnrt";
     std::string out = "\"";
     for (const char c : s) {
-        switch (c) {
-        case '"':
-            out += "\\\"";
-            break;
-        case '\\':
-            out += "\\\\";
-            break;
-        case '\b':
-            out += "\\b";
-            break;
-        case '\f':
-            out += "\\f";
-            break;
-        case '\n':
-            out += "\\n";
-            break;
-        case '\r':
-            out += "\\r";
-            break;
-        case '\t':
-            out += "\\t";
-            break;
-        default:
-            if (static_cast<unsigned char>(c) < 0x20) {
-                char escaped[8];
-                std::snprintf(escaped, sizeof escaped, "\\u%04x", unsigned(c));
-                out += escaped;
-            } else {
-                out += c; // UTF-8 passes through: JSON text is UTF-8
-            }
+        const size_t k = kRaw.find(c);
+        if (k != std::string_view::npos) {
+            out += '\\';
+            out += kEscaped[k];
+        } else if (static_cast<unsigned char>(c) < 0x20) {
+            char escaped[8];
+            std::snprintf(escaped, sizeof escaped, "\\u%04x", unsigned(c));
+            out += escaped;
+        } else {
+            out += c; // UTF-8 passes through: JSON text is UTF-8
         }
     }
-    return out + "\"";
+    return out + '"';
 }
 
 /// Sets `key` to an encoded value; a key set twice keeps its first place.

@@ -1,6 +1,6 @@
-// Particle and volume caches (outputs.md). This is the project's only translation unit with
-// OpenVDB's point conversion and file I/O headers: they cost about half a minute of compile time
-// each time they are included.
+// Particle and volume caches (outputs.md). Both live in this one translation unit because
+// OpenVDB's point conversion and I/O headers cost about half a minute of compile time each
+// time they are included.
 #include <firn/io.h>
 
 #include <openvdb/io/Archive.h>
@@ -12,6 +12,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -121,7 +122,9 @@ PointDataGrid::Ptr makePointGrid(const ParticleFrame& particles, double voxelSiz
     const auto xform = math::Transform::createLinearTransform(voxelSize);
     const ArrayView<std::array<float, 3>> positions(particles.P);
     const auto index = tools::createPointIndexGrid<PointIndexGrid>(positions, *xform);
-    // NullCodec: the cache keeps exact positions, not quantised ones (style.md).
+    // NullCodec: full float offsets from the voxel centre, not quantised ones (style.md). Read
+    // back, a coordinate 1.5 voxels or more from the origin is bit-exact; nearer, the offset is
+    // no finer than the coordinate itself and it may come back one float step away.
     auto grid =
         points::createPointDataGrid<points::NullCodec, PointDataGrid>(*index, positions, *xform);
     auto& tree = grid->tree();

@@ -23,19 +23,30 @@ using Vector3d = Eigen::Vector3d;
 /// Below this, sqrt(eigenvalue) is clamped: the logs of the stretches must stay finite.
 constexpr double kMinStretch = 1e-6;
 
+/// computeDirect's eigenvalues are good to ~1e-16 lambda_max in absolute terms; below
+/// lambda_max * 1e-6 (stretch ratio 1e-3) that is no longer float accuracy for the small
+/// stretch, and a Jacobi sweep refines it.
+constexpr double kRefineBelow = 1e-6;
+
 /// One Jacobi rotation zeroing G(p, q) of the symmetric G, accumulated into U (G <- J^T G J,
-/// U <- U J). Golub & Van Loan, Matrix Computations, sec. 8.5 (the symmetric Schur rotation).
+/// U <- U J, J the rotation by (c, s) in the (p, q) plane). Golub & Van Loan, Matrix
+/// Computations, sec. 8.5 (the symmetric Schur rotation); only rows/columns p, q change.
 void jacobiRotate(Matrix3d& G, Matrix3d& U, int p, int q) {
     const double gpq = G(p, q);
     if (gpq == 0.0) return;
     const double tau = (G(q, q) - G(p, p)) / (2.0 * gpq);
     const double t = (tau >= 0.0 ? 1.0 : -1.0) / (std::abs(tau) + std::sqrt(1.0 + tau * tau));
     const double c = 1.0 / std::sqrt(1.0 + t * t), s = t * c;
-    Matrix3d J = Matrix3d::Identity();
-    J(p, p) = c, J(p, q) = s, J(q, p) = -s, J(q, q) = c;
-    G = (J.transpose() * G * J).eval();
-    G(p, q) = G(q, p) = 0.0; // exactly, rather than round-off
-    U = (U * J).eval();
+    const int r = 3 - p - q; // the untouched index
+    const double grp = G(r, p), grq = G(r, q);
+    G(p, p) -= t * gpq;
+    G(q, q) += t * gpq;
+    G(p, q) = G(q, p) = 0.0;
+    G(r, p) = G(p, r) = c * grp - s * grq;
+    G(r, q) = G(q, r) = s * grp + c * grq;
+    const Vector3d up = U.col(p), uq = U.col(q);
+    U.col(p) = c * up - s * uq;
+    U.col(q) = s * up + c * uq;
 }
 
 /// Eigenvectors of F F^T (columns of U, a rotation) and eigenvalues lambda, sorted descending.
@@ -49,13 +60,18 @@ void leftEigen(const Matrix3d& F, Matrix3d& U, Vector3d& lambda) {
     Eigen::SelfAdjointEigenSolver<Matrix3d> eig;
     eig.computeDirect(F * F.transpose());
     U = eig.eigenvectors();
-    const Matrix3d B = F.transpose() * U;
-    Matrix3d G = B.transpose() * B;
-    jacobiRotate(G, U, 0, 1);
-    jacobiRotate(G, U, 0, 2);
-    jacobiRotate(G, U, 1, 2);
+    lambda = eig.eigenvalues();
+    // The sweep is only needed for nearly rank-deficient F; the hot path (every particle, every
+    // step, stretches near 1) skips it.
+    if (lambda.minCoeff() < kRefineBelow * lambda.maxCoeff()) {
+        const Matrix3d B = F.transpose() * U;
+        Matrix3d G = B.transpose() * B;
+        jacobiRotate(G, U, 0, 1);
+        jacobiRotate(G, U, 0, 2);
+        jacobiRotate(G, U, 1, 2);
+        lambda = G.diagonal();
+    }
     // Sort descending (three compare-swaps of columns).
-    lambda = G.diagonal();
     auto order = [&](int i, int j) {
         if (lambda[i] >= lambda[j]) return;
         std::swap(lambda[i], lambda[j]);
@@ -139,6 +155,27 @@ LeftStretch leftStretch3(const Eigen::Matrix3f& F) {
     return out;
 }
 
+/// Round-off can leave two (nearly) equal singular values one ulp out of order. Swapping the
+/// pair as (u_i, u_j) -> (u_j, -u_i), and the same for V, keeps both rotations and the product;
+/// for the last pair the sign of det F is then moved back onto the last value by negating two
+/// columns of V.
+void enforceOrder(Matrix3d& U, Matrix3d& V, Vector3d& sigma) {
+    auto swapPair = [&](int i, int j) {
+        const Vector3d ui = U.col(i), vi = V.col(i);
+        U.col(i) = U.col(j), U.col(j) = -ui;
+        V.col(i) = V.col(j), V.col(j) = -vi;
+        std::swap(sigma[i], sigma[j]);
+    };
+    if (sigma[1] > sigma[0]) swapPair(0, 1);
+    if (std::abs(sigma[2]) > sigma[1]) {
+        swapPair(1, 2);
+        if (sigma[1] < 0.0) {
+            V.col(1) = -V.col(1), V.col(2) = -V.col(2);
+            sigma[1] = -sigma[1], sigma[2] = -sigma[2];
+        }
+    }
+}
+
 } // namespace
 
 Svd3 svd3(const Eigen::Matrix3f& F) {
@@ -147,6 +184,7 @@ Svd3 svd3(const Eigen::Matrix3f& F) {
     Vector3d lambda, sigma;
     leftEigen(Fd, U, lambda);
     rightFromLeft(Fd.transpose() * U, V, sigma);
+    enforceOrder(U, V, sigma);
     return Svd3{U.cast<float>(), sigma.cast<float>(), V.cast<float>()};
 }
 

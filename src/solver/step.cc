@@ -1,4 +1,5 @@
 #include <firn/solver.h>
+#include <firn/hencky.h>
 #include <firn/svd.h>
 
 #include <tbb/blocked_range.h>
@@ -35,6 +36,25 @@ private:
 Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d) {
     const Mat3f t = U * d.asDiagonal() * U.transpose();
     return Sym3f{t(0, 0), t(1, 1), t(2, 2), t(0, 1), t(0, 2), t(1, 2)};
+}
+
+/// Most particles are inside their yield surface with stretches near 1: there the Hencky strain
+/// comes from a series and the stress needs no principal decomposition. Returns false when the
+/// particle needs the full path (large stretch or yielding).
+bool elasticFastPath(const Material& mat, const Mat3f& F, const PlasticState& state, int dim,
+                     Sym3f& tau)
+{
+    Mat3f eps;
+    if (!henckyStrainSeries(F, dim, eps)) return false;
+    const float tr = eps.trace();
+    const float devNorm = std::sqrt(std::max(0.f, eps.squaredNorm() - tr * tr / float(dim)));
+    if (!staysElastic(mat, tr, devNorm, state)) return false;
+    // tau = 2 mu eps + lambda tr(eps) I over the d x d block (the principal form rotated back)
+    const float mu2 = 2.f * mat.lame.mu, ltr = mat.lame.lambda * tr;
+    tau = Sym3f{mu2 * eps(0, 0) + ltr, mu2 * eps(1, 1) + ltr,
+                dim == 3 ? mu2 * eps(2, 2) + ltr : 0.f, mu2 * eps(0, 1), mu2 * eps(0, 2),
+                mu2 * eps(1, 2)};
+    return true;
 }
 
 } // namespace
@@ -95,6 +115,7 @@ void applyPlasticity(World& world) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             const Material& mat = world.materials[ps.material[i]];
+            if (elasticFastPath(mat, ps.F[i], ps.plastic[i], dim, ps.tau[i])) continue;
             const LeftStretch ls = leftStretch(ps.F[i], dim);
             Vec3f eps = Vec3f::Zero();
             for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);

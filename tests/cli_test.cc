@@ -1,0 +1,747 @@
+// The firn command line end to end: the real binary is spawned with its stdout and stderr in
+// files, and the tests check exit codes (0 ok, 1 scene/usage, 2 unstable, 3 I/O, 130
+// interrupted), the exact error messages, the help texts, `firn check`, and what a run leaves in
+// its output folder after finishing, blowing up, being interrupted or failing to write.
+#include "test_util.h"
+
+#include <catch2/catch.hpp>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+extern char** environ;
+
+namespace fs = std::filesystem;
+using firn::test::TempDir;
+
+namespace {
+
+// A 2D granular box resting on a plane: 200 particles, 4 frames, well under a second.
+// Bad scenes below replace one line of it, so the line numbers here matter.
+const std::string kTiny = R"([simulation]
+name = "tiny"
+dimension = 2
+end_time = 0.1
+frame_rate = 30
+
+[grid]
+dx = 0.1
+particles_per_cell = 4
+
+[[material]]
+name = "snow"
+model = "granular"
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+
+[[body]]
+material = "snow"
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 0.5]
+)";
+
+// A 3D scene on a heightfield file that does not exist (heightfields are 3D only).
+const std::string kMissingDem = R"([simulation]
+name = "dem"
+dimension = 3
+
+[[material]]
+name = "snow"
+model = "snow"
+
+[[terrain]]
+shape = "heightfield"
+file = "missing.asc"
+
+[[body]]
+material = "snow"
+shape = "box"
+min = [0, 0, 0]
+max = [1, 1, 1]
+)";
+
+// A stiff, light elastic block (P-wave speed ~1160 m/s) falling onto a plane with a CFL number
+// of 8 and a large max_dt: the explicit elastic time-step limit is violated and the run blows up.
+const std::string kUnstable = R"([simulation]
+name = "unstable"
+dimension = 2
+end_time = 0.5
+frame_rate = 30
+
+[grid]
+dx = 0.1
+particles_per_cell = 4
+cfl = 8.0
+max_dt = 0.01
+
+[[material]]
+name = "block"
+model = "elastic"
+density = 100.0
+youngs_modulus = 1.0e8
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+
+[[body]]
+material = "block"
+shape = "box"
+min = [0.0, 0.5]
+max = [1.0, 1.0]
+)";
+
+const std::vector<std::string> kCoreColumns = {"frame",
+                                               "time",
+                                               "steps",
+                                               "dt",
+                                               "particles",
+                                               "active_voxels",
+                                               "mass",
+                                               "com_x",
+                                               "com_y",
+                                               "com_z",
+                                               "momentum_x",
+                                               "momentum_y",
+                                               "momentum_z",
+                                               "kinetic_energy",
+                                               "max_speed",
+                                               "front_x",
+                                               "crack_tip_x",
+                                               "crack_speed",
+                                               "failed_fraction",
+                                               "wall_seconds"};
+
+const std::vector<std::string> kCoreSummaryKeys = {"scene",
+                                                   "dimension",
+                                                   "particles",
+                                                   "steps",
+                                                   "frames",
+                                                   "end_time",
+                                                   "wall_seconds",
+                                                   "threads",
+                                                   "particle_steps_per_second",
+                                                   "peak_rss_bytes",
+                                                   "bytes_per_particle",
+                                                   "mass_initial",
+                                                   "mass_final",
+                                                   "max_speed",
+                                                   "max_crack_speed",
+                                                   "mean_crack_speed",
+                                                   "runout_x",
+                                                   "alpha_angle_deg",
+                                                   "status"};
+
+std::string slurp(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+void writeText(const std::string& path, const std::string& text) {
+    std::ofstream(path, std::ios::binary) << text;
+}
+
+// `text` with its 1-based line `line` replaced by `replacement`.
+std::string withLine(const std::string& text, int line, const std::string& replacement) {
+    std::istringstream in(text);
+    std::string out, l;
+    for (int n = 1; std::getline(in, l); ++n) out += (n == line ? replacement : l) + "\n";
+    return out;
+}
+
+std::vector<std::string> split(const std::string& text, char sep) {
+    std::vector<std::string> parts;
+    std::string part;
+    std::istringstream in(text);
+    while (std::getline(in, part, sep)) parts.push_back(part);
+    if (!text.empty() && text.back() == sep && sep == ',') parts.push_back("");
+    return parts;
+}
+
+/// Where a spawned firn writes its stdout and stderr.
+struct Capture {
+    std::string out, err;
+};
+
+Capture captureFiles(const std::string& dir) {
+    static int counter = 0;
+    const std::string stem = dir + "/firn-" + std::to_string(counter++);
+    return {stem + ".stdout", stem + ".stderr"};
+}
+
+/// Starts FIRN_BINARY with `args`, stdin from /dev/null, stdout and stderr into `cap`, SIGINT and
+/// SIGTERM at their default and unblocked whatever the test runner does with them.
+pid_t spawnFirn(const std::vector<std::string>& args, const Capture& cap) {
+    std::vector<std::string> all = {FIRN_BINARY};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+
+    posix_spawn_file_actions_t files;
+    posix_spawn_file_actions_init(&files);
+    posix_spawn_file_actions_addopen(&files, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addopen(&files, 1, cap.out.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    posix_spawn_file_actions_addopen(&files, 2, cap.err.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0644);
+    posix_spawnattr_t attr;
+    posix_spawnattr_init(&attr);
+    sigset_t none, stopSignals;
+    sigemptyset(&none);
+    sigemptyset(&stopSignals);
+    sigaddset(&stopSignals, SIGINT);
+    sigaddset(&stopSignals, SIGTERM);
+    posix_spawnattr_setsigmask(&attr, &none);
+    posix_spawnattr_setsigdefault(&attr, &stopSignals);
+    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+
+    pid_t pid = -1;
+    const int rc = posix_spawn(&pid, argv[0], &files, &attr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&files);
+    posix_spawnattr_destroy(&attr);
+    INFO("posix_spawn " << FIRN_BINARY);
+    REQUIRE(rc == 0);
+    return pid;
+}
+
+/// The exit code of `pid`; 1000 + signal when a signal killed it, -1 (and the process killed)
+/// when it has not ended within `timeoutSeconds`.
+int waitExit(pid_t pid, double timeoutSeconds) {
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::duration<double>(timeoutSeconds);
+    int status = 0;
+    while (waitpid(pid, &status, WNOHANG) == 0) {
+        if (std::chrono::steady_clock::now() > deadline) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &status, 0);
+            return -1;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    if (WIFEXITED(status)) return WEXITSTATUS(status);
+    if (WIFSIGNALED(status)) return 1000 + WTERMSIG(status);
+    return -2;
+}
+
+struct Outcome {
+    int code = -1;
+    std::string out, err;
+};
+
+/// Runs firn to the end (at most a minute) and returns its exit code and output.
+Outcome runFirn(const std::vector<std::string>& args, const TempDir& dir) {
+    const Capture cap = captureFiles(dir.path());
+    Outcome o;
+    o.code = waitExit(spawnFirn(args, cap), 60.0);
+    o.out = slurp(cap.out);
+    o.err = slurp(cap.err);
+    return o;
+}
+
+/// Every file under `dir`, as paths relative to it.
+std::set<std::string> filesUnder(const std::string& dir) {
+    std::set<std::string> files;
+    for (const auto& e : fs::recursive_directory_iterator(dir))
+        if (!e.is_directory()) files.insert(fs::relative(e.path(), dir).string());
+    return files;
+}
+
+/// Files whose name marks them as unfinished writes (".name.tmp" and the like).
+std::vector<std::string> temporaryFiles(const std::string& dir) {
+    std::vector<std::string> temps;
+    for (const auto& e : fs::recursive_directory_iterator(dir)) {
+        const std::string name = e.path().filename().string();
+        if (name[0] == '.' || name.find(".tmp") != std::string::npos ||
+            name.find('~') != std::string::npos)
+            temps.push_back(name);
+    }
+    return temps;
+}
+
+std::string frameName(const std::string& kind, int k) {
+    char name[64];
+    std::snprintf(name, sizeof name, "frames/%s.%04d.vdb", kind.c_str(), k);
+    return name;
+}
+
+// OpenVDB files start with the magic number 0x56444220 ("VDB " as a little-endian int32).
+bool isVdbFile(const std::string& path) {
+    return slurp(path).compare(0, 4, std::string(" BDV")) == 0;
+}
+
+// The raw text of `"key": value` in the summary, or "" when the key is absent.
+std::string jsonValue(const std::string& json, const std::string& key) {
+    std::smatch m;
+    const std::regex re("\"" + key + "\"\\s*:\\s*(\"[^\"]*\"|[^,\\n}]+)");
+    return std::regex_search(json, m, re) ? m[1].str() : "";
+}
+
+int count(const std::string& text, char c) {
+    return int(std::count(text.begin(), text.end(), c));
+}
+
+/// Checks metrics.csv: the core columns in the header, then exactly `frames` complete rows
+/// numbered 0..frames-1, each with as many cells as the header. Returns the rows.
+std::vector<std::vector<std::string>> checkMetrics(const std::string& path, int frames) {
+    const std::string text = slurp(path);
+    REQUIRE(!text.empty());
+    CHECK(text.back() == '\n'); // the last row is complete
+    const std::vector<std::string> lines = split(text, '\n');
+    REQUIRE(!lines.empty());
+    const std::vector<std::string> header = split(lines[0], ',');
+    for (const std::string& column : kCoreColumns) {
+        INFO("metrics column " << column);
+        CHECK(std::count(header.begin(), header.end(), column) == 1);
+    }
+    CHECK(int(lines.size()) - 1 == frames);
+    std::vector<std::vector<std::string>> rows;
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+        rows.push_back(split(lines[i], ','));
+        INFO("metrics row " << i << ": " << lines[i]);
+        CHECK(rows.back().size() == header.size());
+        CHECK(rows.back()[0] == std::to_string(i - 1));
+    }
+    return rows;
+}
+
+/// Checks that frames 0..frames-1 have both caches, frame `frames` has none, and no temporary
+/// file is left anywhere in the output folder.
+void checkFrames(const std::string& outDir, int frames) {
+    for (int k = 0; k < frames; ++k)
+        for (const char* kind : {"particles", "volume"}) {
+            const std::string path = outDir + "/" + frameName(kind, k);
+            INFO(path);
+            CHECK(fs::is_regular_file(path));
+            CHECK(isVdbFile(path));
+        }
+    CHECK_FALSE(fs::exists(outDir + "/" + frameName("particles", frames)));
+    CHECK_FALSE(fs::exists(outDir + "/" + frameName("volume", frames)));
+    CHECK(temporaryFiles(outDir).empty());
+}
+
+void checkSummaryKeys(const std::string& json) {
+    CHECK(json.front() == '{');
+    CHECK(json.find_last_not_of(" \n") == json.rfind('}'));
+    for (const std::string& key : kCoreSummaryKeys) {
+        INFO("summary key " << key);
+        CHECK_FALSE(jsonValue(json, key).empty());
+    }
+}
+
+// Waits (at most `timeoutSeconds`) until `path` holds at least `lines` complete lines.
+bool waitForLines(const std::string& path, int lines, double timeoutSeconds) {
+    const auto deadline =
+        std::chrono::steady_clock::now() + std::chrono::duration<double>(timeoutSeconds);
+    while (std::chrono::steady_clock::now() < deadline) {
+        if (count(slurp(path), '\n') >= lines) return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+}
+
+const std::string kDefaultScene = std::string(FIRN_SOURCE_DIR) + "/scenes/default.toml";
+
+/// The usage error text main prints for `message`.
+std::string usageError(const std::string& message) {
+    return "firn: error: " + message + "\n(see firn --help)\n";
+}
+
+/// A scene or usage error: exit code 1, nothing on stdout, exactly `expected` on stderr, and no
+/// output folder created by `firn run`.
+void checkRejected(const TempDir& dir, std::vector<std::string> args, const std::string& expected) {
+    const std::string outDir = dir.path() + "/never";
+    if (args[0] == "run") args.insert(args.begin() + 1, {"--out", outDir});
+    const Outcome o = runFirn(args, dir);
+    std::string line;
+    for (const std::string& a : args) line += " " + a;
+    INFO("firn" << line);
+    CHECK(o.code == 1);
+    CHECK(o.out.empty());
+    CHECK(o.err == expected);
+    CHECK_FALSE(fs::exists(outDir));
+}
+
+/// A scene error: one line "file:line:col: error: key: ..." from both `check` and `run`.
+void checkSceneError(const TempDir& dir, const std::string& name, const std::string& text,
+                     const std::string& expected, const std::vector<std::string>& extra = {}) {
+    const std::string path = dir.path() + "/" + name;
+    writeText(path, text);
+    for (const char* command : {"check", "run"}) {
+        std::vector<std::string> args = {command, path};
+        args.insert(args.end(), extra.begin(), extra.end());
+        checkRejected(dir, args, expected + "\n");
+    }
+}
+
+} // namespace
+
+TEST_CASE("Every bad scene gives exit code 1 and one message with file:line:col and key", "[cli]") {
+    TempDir dir("firn-cli-errors");
+    const std::string d = dir.path() + "/";
+
+    // The scene itself is fine: the tests below each break one thing.
+    REQUIRE(runFirn({"check", d + "tiny.toml"}, dir).code == 1); // not written yet
+    writeText(d + "tiny.toml", kTiny);
+    REQUIRE(runFirn({"check", d + "tiny.toml"}, dir).code == 0);
+
+    SECTION("TOML syntax error") {
+        const std::string path = d + "syntax.toml";
+        writeText(path, withLine(kTiny, 8, "dx = = 0.1"));
+        for (const char* command : {"check", "run"}) {
+            std::vector<std::string> args = {command, path};
+            if (args[0] == "run") args.insert(args.end(), {"--out", d + "never"});
+            const Outcome o = runFirn(args, dir);
+            INFO(command);
+            CHECK(o.code == 1);
+            CHECK(o.out.empty());
+            CHECK(o.err.rfind(path + ":8:6: error: syntax: ", 0) == 0);
+            CHECK(count(o.err, '\n') == 1);
+            CHECK_FALSE(fs::exists(d + "never"));
+        }
+    }
+    SECTION("unknown key") {
+        checkSceneError(dir, "unknown.toml", withLine(kTiny, 9, "particles_per_cel = 4"),
+                        d + "unknown.toml:9:1: error: grid.particles_per_cel: unknown key; did "
+                            "you mean 'particles_per_cell'?");
+    }
+    SECTION("wrong type") {
+        checkSceneError(dir, "type.toml", withLine(kTiny, 8, "dx = \"fine\""),
+                        d + "type.toml:8:6: error: grid.dx: must be a number, got string");
+    }
+    SECTION("value out of range") {
+        checkSceneError(dir, "range.toml", withLine(kTiny, 14, "poisson_ratio = 0.7"),
+                        d + "range.toml:14:17: error: material \"snow\": poisson_ratio: must be "
+                            "in [0, 0.5), got 0.7");
+    }
+    SECTION("a body naming an undefined material") {
+        checkSceneError(dir, "material.toml", withLine(kTiny, 21, "material = \"slush\""),
+                        d + "material.toml:21:12: error: body 1: material \"slush\" is not "
+                            "defined (materials: snow)");
+    }
+    SECTION("missing heightfield file") {
+        checkSceneError(dir, "dem.toml", kMissingDem,
+                        d + "dem.toml:11:8: error: terrain 1: file: file not found: " + d +
+                            "missing.asc");
+    }
+    SECTION("missing scene file") {
+        for (const char* command : {"check", "run"})
+            checkRejected(dir, {command, d + "absent.toml"},
+                          d + "absent.toml: error: cannot open scene file\n");
+    }
+    SECTION("bad --set") {
+        const std::string path = d + "tiny.toml";
+        for (const char* command : {"check", "run"}) {
+            checkRejected(dir, {command, path, "--set", "grid.dxx=0.2"},
+                          "--set: error: grid.dxx: unknown key; did you mean 'dx'?\n");
+            checkRejected(dir, {command, path, "--set", "material.slush.density=100"},
+                          "--set: error: material.slush.density: no [[material]] named "
+                          "\"slush\" (named: snow)\n");
+            checkRejected(dir, {command, path, "--set", "grid.dx=-1"},
+                          "--set: error: grid.dx: must be > 0, got -1\n");
+            checkRejected(dir, {command, path, "--set"}, usageError("--set needs a value"));
+        }
+    }
+    SECTION("bad --threads") {
+        const std::string path = d + "tiny.toml";
+        for (const std::string n : {"0", "-2", "x", "2x", "1.5", ""})
+            checkRejected(dir, {"run", path, "--threads", n},
+                          usageError("--threads must be a positive integer, got '" + n + "'"));
+        checkRejected(dir, {"run", path, "--threads"}, usageError("--threads needs a value"));
+    }
+    SECTION("unknown option, command or arguments") {
+        const std::string path = d + "tiny.toml";
+        checkRejected(dir, {"run", path, "--bogus"},
+                      usageError("unknown option '--bogus' for firn run"));
+        checkRejected(dir, {"check", path, "--threads", "2"},
+                      usageError("unknown option '--threads' for firn check"));
+        checkRejected(dir, {"check", path, "--quiet"},
+                      usageError("unknown option '--quiet' for firn check"));
+        checkRejected(dir, {"simulate", path}, usageError("unknown command 'simulate'"));
+        checkRejected(dir, {"run", path, path},
+                      usageError("one scene file only, got '" + path + "' and '" + path + "'"));
+        checkRejected(dir, {"run", "--quiet"}, usageError("firn run needs a scene file"));
+        const Outcome bare = runFirn({}, dir);
+        CHECK(bare.code == 1);
+        CHECK(bare.out.empty());
+        CHECK(bare.err.find("usage:") != std::string::npos);
+    }
+}
+
+TEST_CASE("firn --help and the command helps exit 0 and list every option", "[cli]") {
+    TempDir dir("firn-cli-help");
+    const Outcome top = runFirn({"--help"}, dir);
+    const Outcome run = runFirn({"run", "--help"}, dir);
+    const Outcome check = runFirn({"check", "-h"}, dir);
+    const Outcome version = runFirn({"--version"}, dir);
+    for (const Outcome* o : {&top, &run, &check, &version}) {
+        CHECK(o->code == 0);
+        CHECK(o->err.empty());
+    }
+    for (const char* option : {"--threads", "--out", "--set", "--quiet"}) {
+        INFO(option);
+        CHECK(top.out.find(option) != std::string::npos);
+        CHECK(run.out.find(option) != std::string::npos);
+    }
+    CHECK(top.out.find("firn check") != std::string::npos);
+    CHECK(top.out.find("130") != std::string::npos); // exit codes are documented
+    CHECK(run.out.find("--help") != std::string::npos);
+    // check takes --set only; its help says so and lists no run option.
+    CHECK(check.out.find("--set") != std::string::npos);
+    CHECK(check.out.find("--threads") == std::string::npos);
+    CHECK(std::regex_search(version.out, std::regex("^firn [0-9]+\\.[0-9]+\\.[0-9]+\n$")));
+}
+
+TEST_CASE("firn check prints particles, dx and a step estimate; --set changes them", "[cli]") {
+    TempDir dir("firn-cli-check");
+    struct Printed {
+        long particles = -1, perMaterial = -1, steps = -1, frames = -1;
+        double dt = 0, endTime = 0;
+        std::string dx;
+    };
+    auto check = [&](const std::vector<std::string>& extra) {
+        std::vector<std::string> args = {"check", kDefaultScene};
+        args.insert(args.end(), extra.begin(), extra.end());
+        const Outcome o = runFirn(args, dir);
+        INFO(o.out << o.err);
+        CHECK(o.code == 0);
+        CHECK(o.err.empty());
+        Printed p;
+        std::smatch m;
+        if (std::regex_search(o.out, m, std::regex("dx = ([0-9.e-]+) m"))) p.dx = m[1];
+        if (std::regex_search(o.out, m, std::regex("\\n  ([0-9]+) particles in ")))
+            p.particles = std::stol(m[1]);
+        if (std::regex_search(o.out, m,
+                              std::regex("material \"snow\" \\(granular\\): ([0-9]+) "
+                                         "particles")))
+            p.perMaterial = std::stol(m[1]);
+        if (std::regex_search(o.out, m, std::regex("dt <= ([0-9.e+-]+) s"))) p.dt = std::stod(m[1]);
+        if (std::regex_search(o.out, m,
+                              std::regex("end time ([0-9.e+-]+) s: about ([0-9]+) steps"))) {
+            p.endTime = std::stod(m[1]);
+            p.steps = std::stol(m[2]);
+        }
+        if (std::regex_search(o.out, m, std::regex(", ([0-9]+) frames\n")))
+            p.frames = std::stol(m[1]);
+        return p;
+    };
+    const Printed base = check({});
+    CHECK(base.dx == "0.1");
+    CHECK(base.particles > 1000);
+    CHECK(base.perMaterial == base.particles);
+    CHECK(base.endTime == 4.0);
+    CHECK(base.frames == 49); // 4 s at 12 frames/s, plus frame 0
+    REQUIRE(base.dt > 0);
+    CHECK(base.steps > 1000);
+    CHECK(base.steps == Approx(base.endTime / base.dt).epsilon(1e-3));
+
+    const Printed coarse = check({"--set", "grid.dx=0.2"});
+    CHECK(coarse.dx == "0.2");
+    CHECK(coarse.particles > 0);
+    CHECK(coarse.particles != base.particles);
+    // Twice the spacing in 2D: about a quarter of the particles.
+    CHECK(double(base.particles) / coarse.particles == Approx(4.0).epsilon(0.15));
+    CHECK(coarse.steps == Approx(coarse.endTime / coarse.dt).epsilon(1e-3));
+    CHECK(coarse.steps < base.steps);
+
+    const Printed longer = check({"--set", "simulation.end_time=8"});
+    CHECK(longer.endTime == 8.0);
+    CHECK(longer.particles == base.particles);
+    CHECK(longer.frames == 97);
+    CHECK(longer.steps == Approx(2.0 * base.steps).epsilon(1e-3));
+}
+
+TEST_CASE("A tiny run writes scene.toml, metrics, summary and every frame", "[cli]") {
+    TempDir dir("firn-cli-run");
+    const std::string scene = dir.path() + "/tiny.toml";
+    writeText(scene, kTiny);
+    const std::string out = dir.path() + "/out";
+
+    const Outcome o = runFirn({"run", scene, "--out", out, "--quiet", "--threads", "2"}, dir);
+    INFO(o.err);
+    REQUIRE(o.code == 0);
+    CHECK(o.out.empty());
+    CHECK(o.err.empty());
+
+    // scene.toml is the scene as run, and it reads back as the same scene.
+    REQUIRE(fs::is_regular_file(out + "/scene.toml"));
+    const Outcome again = runFirn({"check", out + "/scene.toml"}, dir);
+    CHECK(again.code == 0);
+    CHECK(again.out.find("\n  200 particles in ") != std::string::npos);
+
+    const std::string json = slurp(out + "/summary.json");
+    checkSummaryKeys(json);
+    CHECK(jsonValue(json, "status") == "\"ok\"");
+    CHECK(jsonValue(json, "scene") == "\"" + scene + "\"");
+    CHECK(jsonValue(json, "dimension") == "2");
+    CHECK(jsonValue(json, "particles") == "200");
+    CHECK(jsonValue(json, "frames") == "4"); // 0.1 s at 30 frames/s, plus frame 0
+    CHECK(jsonValue(json, "threads") == "2");
+    CHECK(std::stod(jsonValue(json, "end_time")) == Approx(0.1));
+    CHECK(std::stod(jsonValue(json, "mass_initial")) == Approx(125.0)); // 0.5 m^2 * 250 kg/m^3
+    CHECK(std::stod(jsonValue(json, "mass_final")) == Approx(125.0));
+    CHECK(std::stol(jsonValue(json, "steps")) > 0);
+
+    const auto rows = checkMetrics(out + "/metrics.csv", 4);
+    checkFrames(out, 4);
+    const std::set<std::string> expected = {"scene.toml",
+                                            "metrics.csv",
+                                            "summary.json",
+                                            "frames/particles.0000.vdb",
+                                            "frames/particles.0001.vdb",
+                                            "frames/particles.0002.vdb",
+                                            "frames/particles.0003.vdb",
+                                            "frames/volume.0000.vdb",
+                                            "frames/volume.0001.vdb",
+                                            "frames/volume.0002.vdb",
+                                            "frames/volume.0003.vdb"};
+    CHECK(filesUnder(out) == expected);
+
+    SECTION("without --quiet, progress goes to stderr one line per frame") {
+        const std::string out1 = dir.path() + "/out1";
+        const Outcome p = runFirn({"run", scene, "--out", out1, "--threads", "1"}, dir);
+        REQUIRE(p.code == 0);
+        CHECK(p.out.empty());
+        CHECK(p.err.find('\r') == std::string::npos); // stderr is a file, not a TTY
+        const std::vector<std::string> lines = split(p.err, '\n');
+        REQUIRE(lines.size() == 4);
+        for (int k = 1; k <= 3; ++k) {
+            INFO(lines[k - 1]);
+            CHECK(lines[k - 1].rfind("frame " + std::to_string(k) + "/3 ", 0) == 0);
+        }
+        CHECK(lines[3].rfind("firn: 4 frames, ", 0) == 0);
+        CHECK(lines[3].find(out1) != std::string::npos);
+
+        // The thread count does not change the results: same metrics but the wall clock.
+        const auto rows1 = checkMetrics(out1 + "/metrics.csv", 4);
+        const auto header = split(split(slurp(out + "/metrics.csv"), '\n')[0], ',');
+        const auto wall = std::find(header.begin(), header.end(), "wall_seconds") - header.begin();
+        REQUIRE(rows1.size() == rows.size());
+        for (std::size_t i = 0; i < rows.size(); ++i)
+            for (std::size_t c = 0; c < rows[i].size() && c < rows1[i].size(); ++c) {
+                if (long(c) == wall) continue;
+                INFO("row " << i << ", column " << header[c]);
+                CHECK(rows1[i][c] == rows[i][c]);
+            }
+        CHECK(jsonValue(slurp(out1 + "/summary.json"), "threads") == "1");
+    }
+}
+
+TEST_CASE("A blow-up exits 2 with status unstable, saying when and where", "[cli]") {
+    TempDir dir("firn-cli-unstable");
+    const std::string scene = dir.path() + "/unstable.toml";
+    writeText(scene, kUnstable);
+
+    // With a stable CFL number the same block falls quietly past the time the other one blows up.
+    const std::string calm = dir.path() + "/calm";
+    const Outcome ok = runFirn({"run", scene, "--out", calm, "--quiet", "--set", "grid.cfl=0.4",
+                                "--set", "simulation.end_time=0.15"},
+                               dir);
+    CHECK(ok.code == 0);
+    CHECK(jsonValue(slurp(calm + "/summary.json"), "status") == "\"ok\"");
+
+    const std::string out = dir.path() + "/out";
+    const Outcome o = runFirn({"run", scene, "--out", out, "--quiet"}, dir);
+    INFO(o.err);
+    CHECK(o.code == 2);
+    CHECK(o.out.empty());
+    CHECK(o.err.rfind("firn: unstable: ", 0) == 0);
+    CHECK(count(o.err, '\n') == 1);
+    std::smatch m;
+    REQUIRE(std::regex_search(o.err, m, std::regex("at t = ([0-9.e+-]+) s")));
+    const double t = std::stod(m[1]);
+    CHECK(t > 0);
+    CHECK(t < 0.5);
+    CHECK(std::regex_search(o.err, std::regex("near x = \\([^)]+\\) m")));
+
+    const std::string json = slurp(out + "/summary.json");
+    checkSummaryKeys(json);
+    CHECK(jsonValue(json, "status") == "\"unstable\"");
+    const int frames = std::stoi(jsonValue(json, "frames"));
+    CHECK(frames >= 1);
+    CHECK(frames < 16); // it stopped before the end
+    CHECK(jsonValue(json, "message").find("last good frame is " + std::to_string(frames - 1)) !=
+          std::string::npos);
+    CHECK(o.err.find("last good frame is " + std::to_string(frames - 1)) != std::string::npos);
+    // The frames written before the blow-up stay, complete.
+    CHECK(fs::is_regular_file(out + "/" + frameName("particles", 0)));
+    CHECK(fs::is_regular_file(out + "/scene.toml"));
+    checkMetrics(out + "/metrics.csv", frames);
+    checkFrames(out, frames);
+}
+
+TEST_CASE("SIGINT and SIGTERM stop a run cleanly with exit code 130", "[cli]") {
+    TempDir dir("firn-cli-signal");
+    for (const int sig : {SIGINT, SIGTERM}) {
+        const std::string out = dir.path() + "/out" + std::to_string(sig);
+        const Capture cap = captureFiles(dir.path());
+        // Two and a half minutes of simulation: it only ends early by the signal.
+        const pid_t pid = spawnFirn({"run", kDefaultScene, "--out", out, "--threads", "2", "--set",
+                                     "simulation.end_time=60"},
+                                    cap);
+        // Mid-run: header plus frames 0 and 1 written, so the signal handlers are in place.
+        const bool started = waitForLines(out + "/metrics.csv", 3, 30.0);
+        kill(pid, sig);
+        const int code = waitExit(pid, 30.0);
+        const std::string err = slurp(cap.err);
+        INFO("signal " << sig << "; stderr:\n" << err);
+        REQUIRE(started);
+        CHECK(code == 130);
+        CHECK(err.find("firn: stopped by signal " + std::to_string(sig) + " at t = ") !=
+              std::string::npos);
+        CHECK(err.find("frames kept in " + out + "\n") != std::string::npos);
+
+        const std::string json = slurp(out + "/summary.json");
+        checkSummaryKeys(json);
+        CHECK(jsonValue(json, "status") == "\"interrupted\"");
+        CHECK(jsonValue(json, "message").find("signal " + std::to_string(sig)) !=
+              std::string::npos);
+        const int frames = std::stoi(jsonValue(json, "frames"));
+        CHECK(frames >= 2);
+        CHECK(std::stod(jsonValue(json, "end_time")) < 60.0);
+        checkMetrics(out + "/metrics.csv", frames);
+        checkFrames(out, frames);
+        CHECK(err.find(std::to_string(frames) + " frames kept") != std::string::npos);
+    }
+}
+
+TEST_CASE("An output folder that cannot be written gives exit code 3 and names it", "[cli]") {
+    TempDir dir("firn-cli-io");
+    const std::string scene = dir.path() + "/tiny.toml";
+    writeText(scene, kTiny);
+    writeText(dir.path() + "/file", "a regular file, not a folder\n");
+    const std::vector<std::string> outs = {"/proc/firn-cannot-write", dir.path() + "/file/sub",
+                                           dir.path() + "/file"};
+    for (const std::string& out : outs) {
+        const Outcome o = runFirn({"run", scene, "--out", out, "--quiet"}, dir);
+        INFO(out << ": " << o.err);
+        CHECK(o.code == 3);
+        CHECK(o.out.empty());
+        CHECK(o.err.rfind("firn: I/O error: ", 0) == 0);
+        CHECK(o.err.find(out) != std::string::npos);
+        CHECK(count(o.err, '\n') == 1);
+    }
+    CHECK(slurp(dir.path() + "/file") == "a regular file, not a folder\n");
+}
