@@ -13,6 +13,7 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
+#include <filesystem>
 #include <cstdio>
 #include <sstream>
 
@@ -33,6 +34,8 @@ public:
         gStopSignal = 0;
         mOldInt = std::signal(SIGINT, onStopSignal);
         mOldTerm = std::signal(SIGTERM, onStopSignal);
+        // A run started with SIGINT ignored (`firn run ... &` from a script) keeps ignoring it.
+        if (mOldInt == SIG_IGN) std::signal(SIGINT, SIG_IGN);
     }
     ~SignalGuard() {
         std::signal(SIGINT, mOldInt);
@@ -276,6 +279,19 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     writeFileAtomic(r.outDir + "/summary.json", j.str());
 }
 
+/// A rerun into the same folder must not leave frames of an earlier, longer run behind.
+void removeOldFrames(const std::string& dir) {
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+        const std::string name = entry.path().filename().string();
+        const bool frame = (name.rfind("particles.", 0) == 0 || name.rfind("volume.", 0) == 0) &&
+                           entry.path().extension() == ".vdb";
+        if (frame && !std::filesystem::remove(entry.path(), ec))
+            throw IoError("cannot remove old frame " + entry.path().string() + ": " +
+                          ec.message());
+    }
+}
+
 } // namespace
 
 RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
@@ -283,7 +299,9 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     RunResult result;
     result.outDir = options.outDir.empty() ? scene.output.directory : options.outDir;
+    SignalGuard signals; // before setup, so that a signal at any time ends with a summary
     makeDirectories(result.outDir + "/frames");
+    removeOldFrames(result.outDir + "/frames");
     writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
 
     std::unique_ptr<World> world = buildWorld(scene);
@@ -291,7 +309,6 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     const int frames =
         std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
     Progress progress(options.quiet, frames);
-    SignalGuard signals;
 
     s.first = s.last = writeFrame(s, 0, nullptr);
     const StabilityWatch watch(s.first, *world);

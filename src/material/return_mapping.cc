@@ -4,9 +4,16 @@
 //   p = -K tr(eps)                       (K = lambda + 2 mu / d)
 //   q = sqrt(3/2) 2 mu |dev(eps)|
 // so a target (p, q) maps back to eps = -p / (K d) 1 + dev(eps) q_target / q_trial, and the
-// plastic volume change is the change of tr(eps) = log det Fe. Hardening is explicit, as in the
-// authors' MPM codes: the trial state is projected onto the surface of the state at the start
-// of the step, then the hardening variable is updated with the plastic volume change.
+// plastic volume change is the change of tr(eps) = log det Fe.
+//
+// Hardening form (validation.md V6): the paper's eq. (2), p0 = K sinh(xi max(-eps_V^P, 0)), with
+// eps_V^P the accumulated plastic change of log det Fe; eq. (3) with the anticrack strain eta for
+// the weak layer until p0 reaches 0. The update is explicit, as in the authors' MPM codes: the
+// trial state is projected onto the surface of the state at the start of the step, then the
+// hardening variable is updated. So after a tip projection the state sits on the old surface,
+// and where softening outruns elasticity (beta xi > 1 in tension, alpha xi > 1 for the weak
+// layer in compression: a snap-back) the surface shrinks over a few steps even at fixed strain.
+// That is the brittle failure the model is meant to produce, resolved step by step.
 #include <firn/material.h>
 
 #include <algorithm>
@@ -28,7 +35,7 @@ struct CamClaySurface {
 /// Result of a projection in strain space, before any hardening is applied.
 struct Projection {
     Vec3f eps;
-    float dVolume = 0.f; ///< plastic volume change tr(eps_trial) - tr(eps_new), eps_V^P rate
+    float dVolume = 0.f; ///< plastic volume change tr(eps_trial) - tr(eps_new), d eps_V^P
     bool yielded = false;
 };
 
@@ -61,7 +68,9 @@ Vec3f replaceActive(const Vec3f& eps, const Vec3f& active, int dim) {
 }
 
 /// The non-associative Cam-Clay projection of snow-model.md (Wolper et al. 2019, Gaume et al.
-/// 2018a): beyond a tip -> that tip; otherwise scale q onto the surface at constant p.
+/// 2018a): beyond a tip -> that tip; otherwise scale q onto the surface at constant p. Nothing
+/// divides by p0, so the degenerate surface p0 = 0 (a point at the origin) stays finite: every
+/// trial state then goes to zero stress, and only compaction can harden it again.
 Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, const Vec3f& eps) {
     const float K = lame.bulkModulus(dim);
     const StrainSplit split = splitStrain(eps, dim);

@@ -123,7 +123,7 @@ LeftStretch leftStretch2(const Eigen::Matrix3f& F) {
     const double c = f10 * f10 + f11 * f11; // (G G^T)_11
     const double det = f00 * f11 - f01 * f10;
     const double half = 0.5 * (a - c);
-    const double lambda0 = 0.5 * (a + c) + std::hypot(half, b);
+    const double lambda0 = 0.5 * (a + c) + std::sqrt(half * half + b * b); // no hypot: slow
     const double lambda1 = lambda0 > 0.0 ? det * det / lambda0 : 0.0;
 
     // Eigenvector of lambda0: both (lambda0 - c, b) and (b, lambda0 - a) solve it; take the
@@ -131,7 +131,7 @@ LeftStretch leftStretch2(const Eigen::Matrix3f& F) {
     double ux = lambda0 - c, uy = b;
     const double wx = b, wy = lambda0 - a;
     if (wx * wx + wy * wy > ux * ux + uy * uy) ux = wx, uy = wy;
-    const double n = std::hypot(ux, uy);
+    const double n = std::sqrt(ux * ux + uy * uy);
     if (n > 1e-300)
         ux /= n, uy /= n;
     else
