@@ -22,15 +22,14 @@ using namespace firn;
 namespace {
 
 struct Options {
-    int cells = 30;       // block of cells x cells/... see blockScene
+    int cells = 30; // block of cells x cells/... see blockScene
     int steps = 60;
     int threads = 0;
     std::string transfer = "apic";
     std::string model = "elastic";
 };
 
-std::string blockScene(const Options& o)
-{
+std::string blockScene(const Options& o) {
     // An elastic block of 40 x 25 x 25 cells at dx 0.02 and 8 particles per cell (200 000
     // particles) resting on a frictional floor under gravity.
     const double dx = 0.02;
@@ -73,8 +72,7 @@ struct Measurement {
     double seconds = 0;
 };
 
-Measurement measure(const SceneDesc& scene, int threads, int steps)
-{
+Measurement measure(const SceneDesc& scene, int threads, int steps) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     auto world = buildWorld(scene);
     step(*world, stableTimeStep(*world)); // warm up: first topology and allocations
@@ -86,8 +84,7 @@ Measurement measure(const SceneDesc& scene, int threads, int steps)
     return m;
 }
 
-void printShares(const Measurement& m)
-{
+void printShares(const Measurement& m) {
     const StepTimings& t = m.timings;
     const double total = t.p2g + t.gridUpdate + t.g2p + t.plasticity + t.sort;
     std::printf("  time share: P2G %.1f %%, grid update %.1f %%, G2P %.1f %%, plasticity %.1f "
@@ -96,8 +93,7 @@ void printShares(const Measurement& m)
                 100 * t.plasticity / total, 100 * t.sort / total);
 }
 
-Options parseOptions(int argc, char** argv)
-{
+Options parseOptions(int argc, char** argv) {
     Options o;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -108,11 +104,16 @@ Options parseOptions(int argc, char** argv)
             }
             return argv[++i];
         };
-        if (a == "--cells") o.cells = std::atoi(value().c_str());
-        else if (a == "--steps") o.steps = std::atoi(value().c_str());
-        else if (a == "--threads") o.threads = std::atoi(value().c_str());
-        else if (a == "--transfer") o.transfer = value();
-        else if (a == "--model") o.model = value();
+        if (a == "--cells")
+            o.cells = std::atoi(value().c_str());
+        else if (a == "--steps")
+            o.steps = std::atoi(value().c_str());
+        else if (a == "--threads")
+            o.threads = std::atoi(value().c_str());
+        else if (a == "--transfer")
+            o.transfer = value();
+        else if (a == "--model")
+            o.model = value();
         else {
             std::fprintf(stderr, "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
                                  "[--transfer apic|pic|flip] [--model elastic|snow|granular]\n");
@@ -124,8 +125,7 @@ Options parseOptions(int argc, char** argv)
 
 } // namespace
 
-int main(int argc, char** argv)
-{
+int main(int argc, char** argv) {
     const Options o = parseOptions(argc, argv);
     const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
     const SceneDesc scene = parseScene(blockScene(o), "bench/block.toml");
@@ -138,7 +138,8 @@ int main(int argc, char** argv)
     printShares(one);
     const Measurement many = measure(scene, threads, o.steps);
     std::printf("%d threads: %.3g particle-steps/s, speed-up %.2f\n", threads,
-                many.particleStepsPerSecond, many.particleStepsPerSecond / one.particleStepsPerSecond);
+                many.particleStepsPerSecond,
+                many.particleStepsPerSecond / one.particleStepsPerSecond);
     printShares(many);
 
     rusage usage{};

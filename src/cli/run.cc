@@ -13,8 +13,8 @@
 #include <chrono>
 #include <cmath>
 #include <csignal>
-#include <filesystem>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 
 namespace firn {
@@ -287,8 +287,7 @@ void removeOldFrames(const std::string& dir) {
         const bool frame = (name.rfind("particles.", 0) == 0 || name.rfind("volume.", 0) == 0) &&
                            entry.path().extension() == ".vdb";
         if (frame && !std::filesystem::remove(entry.path(), ec))
-            throw IoError("cannot remove old frame " + entry.path().string() + ": " +
-                          ec.message());
+            throw IoError("cannot remove old frame " + entry.path().string() + ": " + ec.message());
     }
 }
 

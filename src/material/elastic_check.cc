@@ -10,8 +10,7 @@ namespace {
 constexpr float kPi = 3.14159265358979323846f;
 }
 
-bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticState& state)
-{
+bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticState& state) {
     const Lame& lame = m.lame;
     switch (m.model) {
     case MaterialModel::Elastic:
@@ -21,8 +20,8 @@ bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticSt
         if (trEps >= 0.f) return trEps == 0.f && devNorm == 0.f;
         const float sinPhi = std::sin(m.frictionAngleDeg * kPi / 180.f);
         const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
-        const float dGamma =
-            devNorm + (float(m.dim) * lame.lambda + 2.f * lame.mu) / (2.f * lame.mu) * trEps * alpha;
+        const float dGamma = devNorm + (float(m.dim) * lame.lambda + 2.f * lame.mu) /
+                                           (2.f * lame.mu) * trEps * alpha;
         return dGamma <= 0.f;
     }
     case MaterialModel::Snow:

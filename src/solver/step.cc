@@ -1,5 +1,5 @@
-#include <firn/solver.h>
 #include <firn/hencky.h>
+#include <firn/solver.h>
 #include <firn/svd.h>
 
 #include <tbb/blocked_range.h>
@@ -42,8 +42,7 @@ Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d) {
 /// comes from a series and the stress needs no principal decomposition. Returns false when the
 /// particle needs the full path (large stretch or yielding).
 bool elasticFastPath(const Material& mat, const Mat3f& F, const PlasticState& state, int dim,
-                     Sym3f& tau)
-{
+                     Sym3f& tau) {
     Mat3f eps;
     if (!henckyStrainSeries(F, dim, eps)) return false;
     const float tr = eps.trace();
@@ -51,9 +50,9 @@ bool elasticFastPath(const Material& mat, const Mat3f& F, const PlasticState& st
     if (!staysElastic(mat, tr, devNorm, state)) return false;
     // tau = 2 mu eps + lambda tr(eps) I over the d x d block (the principal form rotated back)
     const float mu2 = 2.f * mat.lame.mu, ltr = mat.lame.lambda * tr;
-    tau = Sym3f{mu2 * eps(0, 0) + ltr, mu2 * eps(1, 1) + ltr,
-                dim == 3 ? mu2 * eps(2, 2) + ltr : 0.f, mu2 * eps(0, 1), mu2 * eps(0, 2),
-                mu2 * eps(1, 2)};
+    tau =
+        Sym3f{mu2 * eps(0, 0) + ltr, mu2 * eps(1, 1) + ltr, dim == 3 ? mu2 * eps(2, 2) + ltr : 0.f,
+              mu2 * eps(0, 1),       mu2 * eps(0, 2),       mu2 * eps(1, 2)};
     return true;
 }
 

@@ -45,21 +45,78 @@ template <int Dim> inline Stencil stencilOf(const Vec3f& x, float invDx, const L
     return s;
 }
 
-/// Visits the 3^Dim nodes of a stencil: fn(padded index, weight, offset node - particle in
-/// grid units).
-template <int Dim, typename Fn> inline void forEachNode(const Stencil& s, Fn&& fn) {
-    constexpr int nk = Dim == 3 ? 3 : 1;
+/// Adds one particle's contribution to the padded block. The value at node (a, b, c) is
+/// value + affine (node - particle) = (value - affine fx) + a col0 + b col1 + c col2 (grid
+/// units), built up incrementally across the loops instead of a matrix-vector product per node.
+template <int Dim, int NC, bool Affine, int AffineAt>
+inline void scatterParticle(const Stencil& s, const float (&value)[NC], const Mat3f& affine,
+                            float* buf) {
+    float base[NC];
+    for (int ch = 0; ch < NC; ++ch) base[ch] = value[ch];
+    if (Affine) {
+        const Vec3f shift = affine * Vec3f(s.fx[0], s.fx[1], Dim == 3 ? s.fx[2] : 0.f);
+        for (int ch = 0; ch < 3; ++ch) base[AffineAt + ch] -= shift[ch];
+    }
+    constexpr int nc = Dim == 3 ? 3 : 1;
     for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) {
             const float wab = s.w[0][a] * s.w[1][b];
-            for (int c = 0; c < nk; ++c) {
+            float v[NC];
+            for (int ch = 0; ch < NC; ++ch) v[ch] = base[ch];
+            if (Affine)
+                for (int ch = 0; ch < 3; ++ch)
+                    v[AffineAt + ch] += float(a) * affine(ch, 0) + float(b) * affine(ch, 1);
+            for (int c = 0; c < nc; ++c) {
                 const float w = Dim == 3 ? wab * s.w[2][c] : wab;
-                const Vec3f d(float(a) - s.fx[0], float(b) - s.fx[1],
-                              Dim == 3 ? float(c) - s.fx[2] : 0.f);
-                fn(paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c), w, d);
+                float* out =
+                    buf + NC * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c);
+                for (int ch = 0; ch < NC; ++ch) out[ch] += w * v[ch];
+                if (Affine && Dim == 3)
+                    for (int ch = 0; ch < 3; ++ch) v[AffineAt + ch] += affine(ch, 2);
             }
         }
     }
+}
+
+/// Interpolates a particle's velocity (and FLIP increment) from the padded block, with the
+/// APIC moment B = sum w v_i (x_i - x_p)^T in grid units. Moments are accumulated per axis
+/// loop: column j of B is sum w v_i * index_j - fx_j * sum w v_i.
+template <int Dim, bool Flip>
+inline void gatherParticle(const Stencil& s, const float* local, int channels, Vec3f& vPic,
+                           Mat3f& B, Vec3f& dvFlip) {
+    constexpr int nc = Dim == 3 ? 3 : 1;
+    Vec3f m0 = Vec3f::Zero(), m1 = Vec3f::Zero(), m2 = Vec3f::Zero();
+    vPic.setZero();
+    dvFlip.setZero();
+    for (int a = 0; a < 3; ++a) {
+        Vec3f sa = Vec3f::Zero(), sab = Vec3f::Zero(), sac = Vec3f::Zero(), dva = Vec3f::Zero();
+        for (int b = 0; b < 3; ++b) {
+            Vec3f sb = Vec3f::Zero(), sbc = Vec3f::Zero(), dvb = Vec3f::Zero();
+            for (int c = 0; c < nc; ++c) {
+                const float* g = local + channels * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b,
+                                                                     s.base[2] + c);
+                const float wc = Dim == 3 ? s.w[2][c] : 1.f;
+                const Vec3f wv = wc * Vec3f(g[0], g[1], g[2]);
+                sb += wv;
+                if (Dim == 3) sbc += float(c) * wv;
+                if (Flip) dvb += wc * Vec3f(g[0] - g[3], g[1] - g[4], g[2] - g[5]);
+            }
+            const float wb = s.w[1][b];
+            sa += wb * sb;
+            sab += (wb * float(b)) * sb;
+            sac += wb * sbc;
+            if (Flip) dva += wb * dvb;
+        }
+        const float wa = s.w[0][a];
+        vPic += wa * sa;
+        m0 += (wa * float(a)) * sa;
+        m1 += wa * sab;
+        m2 += wa * sac;
+        if (Flip) dvFlip += wa * dva;
+    }
+    B.col(0) = m0 - s.fx[0] * vPic;
+    B.col(1) = m1 - s.fx[1] * vPic;
+    B.col(2) = Dim == 3 ? Vec3f(m2 - s.fx[2] * vPic) : Vec3f::Zero();
 }
 
 /// Scatter phase. ParticleFn(i, float value[NC], Mat3f& affine) fills the constant part of the
@@ -76,17 +133,9 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                 float value[NC];
-                Mat3f affine;
+                Mat3f affine = Mat3f::Zero();
                 fn(i, value, affine);
-                if (Affine) affine *= ps.dx; // node offsets below are in grid units
-                forEachNode<Dim>(s, [&](int node, float w, const Vec3f& d) {
-                    float* out = buf + node * NC;
-                    for (int ch = 0; ch < NC; ++ch) out[ch] += w * value[ch];
-                    if (Affine) {
-                        const Vec3f a = affine * d;
-                        for (int ch = 0; ch < 3; ++ch) out[AffineAt + ch] += w * a[ch];
-                    }
-                });
+                scatterParticle<Dim, NC, Affine, AffineAt>(s, value, affine * ps.dx, buf);
             }
         }
     });
@@ -230,15 +279,9 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                 if (Flip) gatherPadded<Dim>(grid, l, auxField, channels, 0, local + 3);
                 for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                     const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
-                    Vec3f vPic = Vec3f::Zero(), dvFlip = Vec3f::Zero();
-                    Mat3f B = Mat3f::Zero();
-                    forEachNode<Dim>(s, [&](int node, float w, const Vec3f& d) {
-                        const float* g = local + channels * node;
-                        const Vec3f vi(g[0], g[1], g[2]);
-                        vPic += w * vi;
-                        B.noalias() += (w * vi) * d.transpose();
-                        if (Flip) dvFlip += w * (vi - Vec3f(g[3], g[4], g[5]));
-                    });
+                    Vec3f vPic, dvFlip;
+                    Mat3f B;
+                    gatherParticle<Dim, Flip>(s, local, channels, vPic, B, dvFlip);
                     const Mat3f C = cScale * B;
                     ps.C[i] = C;
                     ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic) : vPic;
