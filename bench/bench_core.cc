@@ -10,6 +10,7 @@
 #include <tbb/info.h>
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -67,6 +68,7 @@ velocity = [0.5, 0.0, 0.0]
 }
 
 struct Measurement {
+    std::size_t particles = 0;
     double particleStepsPerSecond = 0;
     StepTimings timings;
     double seconds = 0;
@@ -80,7 +82,8 @@ Measurement measure(const SceneDesc& scene, int threads, int steps) {
     const auto t0 = std::chrono::steady_clock::now();
     for (int s = 0; s < steps; ++s) step(*world, stableTimeStep(*world), &m.timings);
     m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    m.particleStepsPerSecond = double(world->particles.size()) * steps / m.seconds;
+    m.particles = world->particles.size();
+    m.particleStepsPerSecond = double(m.particles) * steps / m.seconds;
     return m;
 }
 
@@ -91,6 +94,17 @@ void printShares(const Measurement& m) {
                 "%%, re-bucketing %.1f %%\n",
                 100 * t.p2g / total, 100 * t.gridUpdate / total, 100 * t.g2p / total,
                 100 * t.plasticity / total, 100 * t.sort / total);
+}
+
+/// Resident set size now, from /proc/self/statm.
+double currentRssBytes() {
+    std::FILE* f = std::fopen("/proc/self/statm", "r");
+    long pages = 0, resident = 0;
+    if (f) {
+        if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+        std::fclose(f);
+    }
+    return double(resident) * double(sysconf(_SC_PAGESIZE));
 }
 
 Options parseOptions(int argc, char** argv) {
@@ -129,12 +143,13 @@ int main(int argc, char** argv) {
     const Options o = parseOptions(argc, argv);
     const int threads = o.threads > 0 ? o.threads : tbb::info::default_concurrency();
     const SceneDesc scene = parseScene(blockScene(o), "bench/block.toml");
-    std::size_t particles = buildWorld(scene)->particles.size();
-    std::printf("elastic block: %zu particles, dx 0.02, %s, %s, %d steps\n", particles,
-                o.transfer.c_str(), o.model.c_str(), o.steps);
+    const double baseline = currentRssBytes(); // libraries (OpenVDB, TBB) before any particle
+    std::printf("elastic block, dx 0.02, %s, %s, %d steps\n", o.transfer.c_str(), o.model.c_str(),
+                o.steps);
 
     const Measurement one = measure(scene, 1, o.steps);
-    std::printf("1 thread : %.3g particle-steps/s\n", one.particleStepsPerSecond);
+    std::printf("%zu particles\n1 thread : %.3g particle-steps/s\n", one.particles,
+                one.particleStepsPerSecond);
     printShares(one);
     const Measurement many = measure(scene, threads, o.steps);
     std::printf("%d threads: %.3g particle-steps/s, speed-up %.2f\n", threads,
@@ -144,7 +159,10 @@ int main(int argc, char** argv) {
 
     rusage usage{};
     getrusage(RUSAGE_SELF, &usage);
-    const double rss = double(usage.ru_maxrss) * 1024.0;
-    std::printf("peak RSS %.1f MB: %.0f bytes per particle\n", rss / 1e6, rss / particles);
+    const double peak = double(usage.ru_maxrss) * 1024.0;
+    std::printf("peak RSS %.1f MB: %.0f bytes per particle; without the %.1f MB the process holds "
+                "before seeding (shared libraries): %.0f bytes per particle\n",
+                peak / 1e6, peak / one.particles, baseline / 1e6,
+                (peak - baseline) / one.particles);
     return 0;
 }

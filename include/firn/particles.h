@@ -53,11 +53,12 @@ struct ParticleSet {
     /// Appends one particle at rest with F = I (leaves are rebuilt by bucketByLeaf).
     void add(const Vec3f& position, const Vec3f& velocity, float particleMass, float volume,
              int materialIndex, const PlasticState& state);
-    /// Removes the particles for which keep[i] is false (keeps order).
-    void compact(const std::vector<char>& keep);
     /// Sorts particles into leaves (stable, deterministic for any thread count). Cheap when
-    /// few particles change leaf, which is the common case at CFL-limited steps.
+    /// few particles change leaf, which is the common case at CFL-limited steps. Leaves `tau`
+    /// undefined: recompute it (applyPlasticity) before the next P2G.
     void bucketByLeaf();
+    /// Allocates room for n particles in every array.
+    void reserve(std::size_t n);
 
 private:
     std::vector<std::uint32_t> mOrder;   // scratch: gather order of the last bucketing

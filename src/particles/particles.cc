@@ -63,37 +63,32 @@ void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float partic
     plastic.push_back(state);
 }
 
-void ParticleSet::compact(const std::vector<char>& keep) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < size(); ++i) {
-        if (!keep[i]) continue;
-        x[n] = x[i], v[n] = v[i], C[n] = C[i], F[n] = F[i], tau[n] = tau[i];
-        mass[n] = mass[i], volume0[n] = volume0[i], material[n] = material[i];
-        plastic[n] = plastic[i];
-        ++n;
-    }
-    x.resize(n), v.resize(n), C.resize(n), F.resize(n), tau.resize(n);
-    mass.resize(n), volume0.resize(n), material.resize(n), plastic.resize(n);
-    leaves.clear();
-    leafStart.clear();
+void ParticleSet::reserve(std::size_t n) {
+    x.reserve(n), v.reserve(n), C.reserve(n), F.reserve(n), tau.reserve(n);
+    mass.reserve(n), volume0.reserve(n), material.reserve(n), plastic.reserve(n);
 }
 
 namespace {
 
-// Gathers a[k] = a[order[k]] through a scratch buffer, in parallel.
+/// Gathers a[k] = a[order[k]] in parallel through `scratch` (bytes per element `scratchStride`),
+/// in slices of at most scratchStride bytes per element when the element is larger. No scratch
+/// is allocated: the caller lends the stress array, which is recomputed after bucketing.
 template <typename T>
 void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
-                   std::vector<unsigned char>& scratch) {
+                   unsigned char* scratch, std::size_t scratchStride) {
     const std::size_t n = a.size();
-    if (scratch.size() < n * sizeof(T)) scratch.resize(n * sizeof(T));
-    T* tmp = reinterpret_cast<T*>(scratch.data());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k) tmp[k] = a[order[k]];
-    });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-        std::memcpy(static_cast<void*>(a.data() + r.begin()), tmp + r.begin(),
-                    (r.end() - r.begin()) * sizeof(T));
-    });
+    unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
+    for (std::size_t off = 0; off < sizeof(T); off += scratchStride) {
+        const std::size_t len = std::min(scratchStride, sizeof(T) - off);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k)
+                std::memcpy(scratch + k * len, base + order[k] * sizeof(T) + off, len);
+        });
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k)
+                std::memcpy(base + k * sizeof(T) + off, scratch + k * len, len);
+        });
+    }
 }
 
 // Initial bucketing of unsorted particles: a stable sort by leaf key.
@@ -203,15 +198,17 @@ void ParticleSet::bucketByLeaf() {
         leaves.swap(newLeaves);
         leafStart.swap(newStart);
     }
-    gatherInPlace(x, mOrder, mScratch);
-    gatherInPlace(v, mOrder, mScratch);
-    gatherInPlace(C, mOrder, mScratch);
-    gatherInPlace(F, mOrder, mScratch);
-    gatherInPlace(tau, mOrder, mScratch);
-    gatherInPlace(mass, mOrder, mScratch);
-    gatherInPlace(volume0, mOrder, mScratch);
-    gatherInPlace(material, mOrder, mScratch);
-    gatherInPlace(plastic, mOrder, mScratch);
+    // The stress array is the scratch: it is recomputed from F after every bucketing.
+    unsigned char* scratch = reinterpret_cast<unsigned char*>(tau.data());
+    const std::size_t stride = sizeof(Sym3f);
+    gatherInPlace(x, mOrder, scratch, stride);
+    gatherInPlace(v, mOrder, scratch, stride);
+    gatherInPlace(C, mOrder, scratch, stride);
+    gatherInPlace(F, mOrder, scratch, stride);
+    gatherInPlace(mass, mOrder, scratch, stride);
+    gatherInPlace(volume0, mOrder, scratch, stride);
+    gatherInPlace(material, mOrder, scratch, stride);
+    gatherInPlace(plastic, mOrder, scratch, stride);
 }
 
 } // namespace firn

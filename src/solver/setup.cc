@@ -119,21 +119,24 @@ bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
 /// Seeds particles_per_cell particles in every cell of the body's bounding box: stratified on a
 /// k^d sub-lattice when particles_per_cell = k^d, uniformly random in the cell otherwise, with
 /// positions jittered by `jitter` of a sub-cell.
-void seedBodies(const SceneDesc& scene, World& world) {
+/// Visits every seed position of every body, in body order: emit(position, body index).
+/// particles_per_cell per cell of the body's bounding box, stratified on a k^d sub-lattice when
+/// particles_per_cell = k^d (jittered by `jitter` of a sub-cell), uniformly random in the cell
+/// otherwise; seeds inside an earlier body or a cut are skipped.
+template <typename Emit>
+void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders, Emit&& emit) {
     const int dim = scene.simulation.dimension;
     const int ppc = scene.grid.particlesPerCell;
     const double dx = scene.grid.dx;
     const int k = int(std::lround(std::pow(double(ppc), 1.0 / dim)));
     const bool lattice = int(std::lround(std::pow(double(k), dim))) == ppc;
     const float jitter = float(scene.grid.jitter);
-    const float volume = float(std::pow(dx, dim) / ppc);
 
     std::vector<SeedRegion> regions;
     for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
         const BodyDesc& body = scene.bodies[bi];
-        regions.push_back(regionOf(scene, body, world.colliders));
+        regions.push_back(regionOf(scene, body, colliders));
         const SeedRegion& region = regions.back();
-        const Material& mat = world.materials[body.materialIndex];
         std::array<long, 3> c0{0, 0, 0}, c1{0, 0, 0};
         for (int a = 0; a < dim; ++a) {
             c0[a] = long(std::floor(region.lo[a] / dx));
@@ -159,12 +162,26 @@ void seedBodies(const SceneDesc& scene, World& world) {
                         bool taken = false;
                         for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
                             taken = regions[e].inside(p);
-                        if (taken) continue;
-                        world.particles.add(p, toVec3f(body.velocity), mat.density * volume, volume,
-                                            body.materialIndex, mat.initialState());
+                        if (!taken) emit(p, bi);
                     }
                 }
     }
+}
+
+/// Seeds the bodies in two passes (count, then fill) so the particle arrays are allocated once
+/// at their final size: growing them would transiently need up to twice the memory.
+void seedBodies(const SceneDesc& scene, World& world) {
+    std::size_t count = 0;
+    forEachSeed(scene, world.colliders, [&](const Vec3f&, std::size_t) { ++count; });
+    world.particles.reserve(count);
+    const float volume =
+        float(std::pow(scene.grid.dx, scene.simulation.dimension) / scene.grid.particlesPerCell);
+    forEachSeed(scene, world.colliders, [&](const Vec3f& p, std::size_t bi) {
+        const BodyDesc& body = scene.bodies[bi];
+        const Material& mat = world.materials[body.materialIndex];
+        world.particles.add(p, toVec3f(body.velocity), mat.density * volume, volume,
+                            body.materialIndex, mat.initialState());
+    });
 }
 
 } // namespace
@@ -189,6 +206,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene) {
     w.particles.dx = w.dx;
     seedBodies(scene, w);
     w.particles.bucketByLeaf();
+    applyPlasticity(w); // the stress of the seeded state (and tau after bucketing)
     for (std::size_t i = 0; i < w.particles.size(); ++i) {
         const Material& m = w.materials[w.particles.material[i]];
         w.maxWaveSpeed = std::max(w.maxWaveSpeed, m.pWaveSpeed());

@@ -151,12 +151,12 @@ void step(World& world, double dt, StepTimings* timings) {
         world.maxSpeed = gridToParticles(world.particles, world.grid, params);
     }
     {
-        StageClock clock(timings ? &timings->plasticity : nullptr);
-        applyPlasticity(world);
-    }
-    {
         StageClock clock(timings ? &timings->sort : nullptr);
         world.particles.bucketByLeaf();
+    }
+    {
+        StageClock clock(timings ? &timings->plasticity : nullptr);
+        applyPlasticity(world);
     }
     world.time += dt;
     ++world.steps;
