@@ -404,8 +404,9 @@ TEST_CASE("An override naming an unknown key or table is an error", "[scene][err
     CHECK(errorOf(kMinimal, {"solver.dx=0.2"}) == "--set: error: solver: unknown table");
     CHECK(errorOf(kMinimal, {"material.slabb.density=100"}) ==
           "--set: error: material.slabb.density: no [[material]] named \"slabb\" (named: slab)");
-    CHECK(errorOf(kMinimal, {"dx=0.2"}) == "--set: error: dx: expected <table>.<key>=<value> or "
-                                           "<material|body>.<name>.<key>=<value>");
+    CHECK(errorOf(kMinimal, {"dx=0.2"}) ==
+          "--set: error: dx: expected <table>.<key>=<value>, <material|body>.<name>.<key>=<value> "
+          "or cut.<layer>.<key>=<value>");
     CHECK(errorOf(kMinimal, {"grid.dx=-1"}) == "--set: error: grid.dx: must be > 0, got -1");
 }
 

@@ -86,30 +86,55 @@ private:
 /// Crack tip and speed from the extent of eta > 0 along x (outputs.md: crack_tip_x, crack_speed).
 class CrackTracker {
 public:
+    /// The leading tip is the end of the eta > 0 extent that has grown more since the crack
+    /// first appeared (down-slope, +x, on ties); its speed is its advance between frames.
     void update(const FrameDiagnostics& d, double time) {
         mSpeed = std::nan("");
         if (std::isnan(d.crackMinX)) return;
-        if (std::isnan(mMinX)) {
+        if (std::isnan(mMinX0)) {
+            mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
+            mTime = time;
             mTip = d.crackMaxX;
-        } else {
-            const double up = mMinX - d.crackMinX, down = d.crackMaxX - mMaxX;
-            const double growth = std::max(0.0, std::max(up, down));
-            mTip = up > down ? d.crackMinX : d.crackMaxX;
-            mSpeed = growth / (time - mTime);
-            mMaxSpeed = std::max(mMaxSpeed, mSpeed);
-            if (growth > 0) mGrowth += growth, mGrowthTime += time - mTime;
+            mHistory.push_back({time, mTip});
+            return;
         }
+        const bool upSlope = mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
+        const double advance = upSlope ? mMinX - d.crackMinX : d.crackMaxX - mMaxX;
+        mTip = upSlope ? d.crackMinX : d.crackMaxX;
+        mSpeed = std::max(0.0, advance) / (time - mTime);
+        mMaxSpeed = std::max(mMaxSpeed, mSpeed);
         mMinX = d.crackMinX, mMaxX = d.crackMaxX, mTime = time;
+        mHistory.push_back({time, mTip});
     }
     double tip() const { return mTip; }
     double speed() const { return mSpeed; }
     double maxSpeed() const { return mMaxSpeed; }
-    double meanSpeed() const { return mGrowthTime > 0 ? mGrowth / mGrowthTime : 0.0; }
-    double distance() const { return std::isnan(mMinX) ? 0.0 : mMaxX - mMinX; }
+    /// Growth of the extent from its first appearance, m.
+    double distance() const {
+        return std::isnan(mMinX0) ? 0.0 : (mMaxX - mMinX) - (mMaxX0 - mMinX0);
+    }
+    /// Steady crack speed, m/s: least-squares slope of the leading tip against time over the
+    /// middle 80 % of its travel, leaving out the onset at the cut and the arrival at the
+    /// column's end (both transients).
+    double meanSpeed() const {
+        if (mHistory.size() < 3) return 0.0;
+        const double x0 = mHistory.front().second, x1 = mHistory.back().second;
+        const double lo = std::min(x0, x1) + 0.1 * std::abs(x1 - x0);
+        const double hi = std::max(x0, x1) - 0.1 * std::abs(x1 - x0);
+        double n = 0, st = 0, sx = 0, stt = 0, stx = 0;
+        for (const auto& [t, x] : mHistory) {
+            if (x < lo || x > hi) continue;
+            n += 1, st += t, sx += x, stt += t * t, stx += t * x;
+        }
+        const double det = n * stt - st * st;
+        return n >= 3 && det > 0 ? std::abs((n * stx - st * sx) / det) : 0.0;
+    }
 
 private:
-    double mMinX = std::nan(""), mMaxX = std::nan(""), mTime = 0, mTip = std::nan("");
-    double mSpeed = std::nan(""), mMaxSpeed = 0, mGrowth = 0, mGrowthTime = 0;
+    double mMinX0 = std::nan(""), mMaxX0 = std::nan(""), mMinX = 0, mMaxX = 0;
+    double mTime = 0, mTip = std::nan("");
+    double mSpeed = std::nan(""), mMaxSpeed = 0;
+    std::vector<std::pair<double, double>> mHistory; // (time, leading tip x)
 };
 
 /// Energy can only leave the system (friction, plasticity, numerical damping). A gain larger

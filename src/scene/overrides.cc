@@ -9,7 +9,9 @@ namespace firn::scene {
 namespace {
 
 const SourceLoc kSetLoc{kOverrideFile, 0, 0};
-const char* const kUsage = "expected <table>.<key>=<value> or <material|body>.<name>.<key>=<value>";
+const char* const kUsage =
+    "expected <table>.<key>=<value>, <material|body>.<name>.<key>=<value> or "
+    "cut.<layer>.<key>=<value>";
 
 std::string trim(std::string_view text) {
     const auto first = text.find_first_not_of(" \t");
@@ -29,13 +31,14 @@ std::vector<std::string> splitPath(const std::string& path) {
     return parts;
 }
 
-// The entry of an [[array]] whose `name` is `name`.
+// The entry of an [[array]] whose `name` is `name` (a [[cut]] is named by its `layer`).
 toml::table& namedEntry(toml::array& array, const std::string& arrayKey, const std::string& name,
                         const std::string& path) {
+    const char* idKey = arrayKey == "cut" ? "layer" : "name";
     std::string names;
     for (toml::node& item : array) {
         toml::table* entry = item.as_table();
-        const auto* entryName = entry ? entry->get_as<std::string>("name") : nullptr;
+        const auto* entryName = entry ? entry->get_as<std::string>(idKey) : nullptr;
         if (!entryName) continue;
         if (entryName->get() == name) return *entry;
         names += (names.empty() ? "" : ", ") + entryName->get();
