@@ -486,7 +486,7 @@ TEST_CASE("firn --help and the command helps exit 0 and list every option", "[cl
 TEST_CASE("firn check prints particles and dx and a step estimate that --set changes", "[cli]") {
     TempDir dir("firn-cli-check");
     struct Printed {
-        long particles = -1, perMaterial = -1, steps = -1, frames = -1;
+        long particles = -1, perBody = -1, steps = -1, frames = -1;
         double dt = 0, endTime = 0;
         std::string dx;
     };
@@ -502,10 +502,8 @@ TEST_CASE("firn check prints particles and dx and a step estimate that --set cha
         if (std::regex_search(o.out, m, std::regex("dx = ([0-9.e-]+) m"))) p.dx = m[1];
         if (std::regex_search(o.out, m, std::regex("\\n  ([0-9]+) particles in ")))
             p.particles = std::stol(m[1]);
-        if (std::regex_search(o.out, m,
-                              std::regex("material \"snow\" \\(granular\\): ([0-9]+) "
-                                         "particles")))
-            p.perMaterial = std::stol(m[1]);
+        if (std::regex_search(o.out, m, std::regex("body 1 \\(snow\\): ([0-9]+) particles")))
+            p.perBody = std::stol(m[1]);
         if (std::regex_search(o.out, m, std::regex("dt <= ([0-9.e+-]+) s"))) p.dt = std::stod(m[1]);
         if (std::regex_search(o.out, m,
                               std::regex("end time ([0-9.e+-]+) s: about ([0-9]+) steps"))) {
@@ -519,7 +517,7 @@ TEST_CASE("firn check prints particles and dx and a step estimate that --set cha
     const Printed base = check({});
     CHECK(base.dx == "0.1");
     CHECK(base.particles > 1000);
-    CHECK(base.perMaterial == base.particles);
+    CHECK(base.perBody == base.particles); // the default scene has one body
     CHECK(base.endTime == 4.0);
     CHECK(base.frames == 49); // 4 s at 12 frames/s, plus frame 0
     REQUIRE(base.dt > 0);

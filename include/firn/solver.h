@@ -25,6 +25,7 @@ struct World {
     float gravityRamp = 0.f; ///< s, see SimulationDesc::gravityRamp
 
     std::vector<Material> materials;
+    std::vector<std::size_t> particlesPerBody; ///< seeded particles of each scene body
     std::vector<Collider> colliders;
     ParticleSet particles;
     Grid grid;

@@ -379,11 +379,11 @@ std::string describeScene(const SceneDesc& scene) {
         << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
         << scene.grid.particlesPerCell << " particles per cell, transfer "
         << toString(scene.grid.transfer) << "\n";
-    std::vector<std::size_t> perMaterial(world->materials.size(), 0);
-    for (std::int32_t m : world->particles.material) ++perMaterial[m];
-    for (std::size_t m = 0; m < perMaterial.size(); ++m)
-        out << "  material \"" << scene.materials[m].name << "\" ("
-            << toString(scene.materials[m].model) << "): " << perMaterial[m] << " particles\n";
+    for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+        const BodyDesc& body = scene.bodies[b];
+        out << "  body " << b + 1 << (body.name.empty() ? "" : " \"" + body.name + "\"") << " ("
+            << body.material << "): " << world->particlesPerBody[b] << " particles\n";
+    }
     const double dt = stableTimeStep(*world);
     out << "  " << world->particles.size() << " particles in " << world->particles.leafCount()
         << " leaves; P-wave speed " << world->maxWaveSpeed << " m/s; dt <= " << dt << " s\n"

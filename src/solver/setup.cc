@@ -174,6 +174,7 @@ void seedBodies(const SceneDesc& scene, World& world) {
     std::size_t count = 0;
     forEachSeed(scene, world.colliders, [&](const Vec3f&, std::size_t) { ++count; });
     world.particles.reserve(count);
+    world.particlesPerBody.assign(scene.bodies.size(), 0);
     const float volume =
         float(std::pow(scene.grid.dx, scene.simulation.dimension) / scene.grid.particlesPerCell);
     forEachSeed(scene, world.colliders, [&](const Vec3f& p, std::size_t bi) {
@@ -181,6 +182,7 @@ void seedBodies(const SceneDesc& scene, World& world) {
         const Material& mat = world.materials[body.materialIndex];
         world.particles.add(p, toVec3f(body.velocity), mat.density * volume, volume,
                             body.materialIndex, mat.initialState());
+        ++world.particlesPerBody[bi];
     });
 }
 
