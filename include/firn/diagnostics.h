@@ -3,7 +3,13 @@
 // same for any thread count.
 #pragma once
 
+#include <firn/io.h>
 #include <firn/solver.h>
+
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
 
 namespace firn {
 
@@ -30,6 +36,50 @@ struct FrameDiagnostics {
 };
 
 FrameDiagnostics computeDiagnostics(const World& world);
+
+/// Crack tip and speed from the extent of weak-layer particles with eta > 0, frame by frame
+/// (outputs.md: crack_tip_x, crack_speed; summary: max and mean crack speed, distance).
+class CrackTracker {
+public:
+    /// The leading tip is the end of the eta > 0 extent that has grown more since the crack
+    /// first appeared (down-slope, +x, on ties); its speed is its advance between frames.
+    void update(const FrameDiagnostics& d, double time);
+    double tip() const { return mTip; }     ///< m, NaN before the crack appears
+    double speed() const { return mSpeed; } ///< m/s since the previous frame, NaN if none
+    double maxSpeed() const { return mMaxSpeed; }
+    /// Growth of the extent since its first appearance, m.
+    double distance() const;
+    /// Steady crack speed, m/s: least-squares slope of the leading tip against time over the
+    /// middle 80 % of its travel, leaving out the onset at the cut and the arrival at the end of
+    /// a column (both transients).
+    double meanSpeed() const;
+
+private:
+    double mMinX0 = std::numeric_limits<double>::quiet_NaN(), mMaxX0 = mMinX0;
+    double mMinX = 0, mMaxX = 0, mTime = 0;
+    double mTip = std::numeric_limits<double>::quiet_NaN(), mSpeed = mTip, mMaxSpeed = 0;
+    std::vector<std::pair<double, double>> mHistory; // (time, leading tip x)
+};
+
+/// Energy can only leave the system (friction, plasticity, numerical damping). A gain larger
+/// than everything the scene holds (initial kinetic + elastic energy, plus the potential energy
+/// released so far, plus one cell of fall) means the integration has blown up.
+class StabilityWatch {
+public:
+    StabilityWatch(const FrameDiagnostics& first, const World& world);
+    /// Empty when fine, else a sentence saying what went wrong, when and where.
+    std::string check(const FrameDiagnostics& d, const World& world) const;
+    /// Total energy now minus at the start, J (negative: dissipated).
+    double drift(const FrameDiagnostics& d) const { return d.totalEnergy() - mE0; }
+
+private:
+    double mE0, mBudget, mGravity0;
+};
+
+/// Alpha angle, degrees: from the highest point of the release (the first frame's highest
+/// particle) to the farthest point of the deposit (the particle with the largest x now), from
+/// the horizontal. NaN when nothing moved beyond the release point.
+double alphaAngleDeg(const FrameDiagnostics& first, const World& world);
 
 /// Particle attributes of outputs.md for the particle cache (p, q from the stored Kirchhoff
 /// stress as defined in the paper).

@@ -84,91 +84,6 @@ private:
 };
 
 /// Crack tip and speed from the extent of eta > 0 along x (outputs.md: crack_tip_x, crack_speed).
-class CrackTracker {
-public:
-    /// The leading tip is the end of the eta > 0 extent that has grown more since the crack
-    /// first appeared (down-slope, +x, on ties); its speed is its advance between frames.
-    void update(const FrameDiagnostics& d, double time) {
-        mSpeed = std::nan("");
-        if (std::isnan(d.crackMinX)) return;
-        if (std::isnan(mMinX0)) {
-            mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
-            mTime = time;
-            mTip = d.crackMaxX;
-            mHistory.push_back({time, mTip});
-            return;
-        }
-        const bool upSlope = mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
-        const double advance = upSlope ? mMinX - d.crackMinX : d.crackMaxX - mMaxX;
-        mTip = upSlope ? d.crackMinX : d.crackMaxX;
-        mSpeed = std::max(0.0, advance) / (time - mTime);
-        mMaxSpeed = std::max(mMaxSpeed, mSpeed);
-        mMinX = d.crackMinX, mMaxX = d.crackMaxX, mTime = time;
-        mHistory.push_back({time, mTip});
-    }
-    double tip() const { return mTip; }
-    double speed() const { return mSpeed; }
-    double maxSpeed() const { return mMaxSpeed; }
-    /// Growth of the extent from its first appearance, m.
-    double distance() const {
-        return std::isnan(mMinX0) ? 0.0 : (mMaxX - mMinX) - (mMaxX0 - mMinX0);
-    }
-    /// Steady crack speed, m/s: least-squares slope of the leading tip against time over the
-    /// middle 80 % of its travel, leaving out the onset at the cut and the arrival at the
-    /// column's end (both transients).
-    double meanSpeed() const {
-        if (mHistory.size() < 3) return 0.0;
-        const double x0 = mHistory.front().second, x1 = mHistory.back().second;
-        const double lo = std::min(x0, x1) + 0.1 * std::abs(x1 - x0);
-        const double hi = std::max(x0, x1) - 0.1 * std::abs(x1 - x0);
-        double n = 0, st = 0, sx = 0, stt = 0, stx = 0;
-        for (const auto& [t, x] : mHistory) {
-            if (x < lo || x > hi) continue;
-            n += 1, st += t, sx += x, stt += t * t, stx += t * x;
-        }
-        const double det = n * stt - st * st;
-        return n >= 3 && det > 0 ? std::abs((n * stx - st * sx) / det) : 0.0;
-    }
-
-private:
-    double mMinX0 = std::nan(""), mMaxX0 = std::nan(""), mMinX = 0, mMaxX = 0;
-    double mTime = 0, mTip = std::nan("");
-    double mSpeed = std::nan(""), mMaxSpeed = 0;
-    std::vector<std::pair<double, double>> mHistory; // (time, leading tip x)
-};
-
-/// Energy can only leave the system (friction, plasticity, numerical damping). A gain larger
-/// than everything the scene holds (initial kinetic + elastic energy, plus the potential energy
-/// released so far, plus one cell of fall) means the integration has blown up.
-class StabilityWatch {
-public:
-    explicit StabilityWatch(const FrameDiagnostics& d0, const World& w)
-        : mE0(d0.totalEnergy())
-        , mBudget(d0.kineticEnergy + d0.elasticEnergy + d0.mass * w.gravity.norm() * w.dx)
-        , mGravity0(d0.gravitationalEnergy) {}
-    /// Empty when fine, else a sentence saying what went wrong and where.
-    std::string check(const FrameDiagnostics& d, const World& w) const {
-        std::ostringstream why;
-        const auto& p = d.worstPosition;
-        if (!d.finite) {
-            why << "non-finite particle state";
-        } else {
-            const double released = std::max(0.0, mGravity0 - d.gravitationalEnergy);
-            const double gain = d.totalEnergy() - mE0;
-            if (gain <= mBudget + released) return "";
-            why << "energy grew by " << gain << " J without a source (budget " << mBudget + released
-                << " J)";
-        }
-        why << " at t = " << w.time << " s, step " << w.steps << ", near x = (" << p[0] << ", "
-            << p[1] << ", " << p[2] << ") m";
-        return why.str();
-    }
-    double drift(const FrameDiagnostics& d) const { return d.totalEnergy() - mE0; }
-
-private:
-    double mE0, mBudget, mGravity0;
-};
-
 const std::vector<std::string> kMetricColumns = {"frame",
                                                  "time",
                                                  "steps",
@@ -257,19 +172,6 @@ FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch) {
                          cell(d.crackMinX),
                          cell(d.crackMaxX)});
     return d;
-}
-
-/// Highest point of the release to the farthest deposit point, from the horizontal.
-double alphaAngleDeg(const FrameDiagnostics& first, const World& w) {
-    const ParticleSet& ps = w.particles;
-    if (ps.size() == 0) return std::nan("");
-    std::size_t far = 0;
-    for (std::size_t i = 1; i < ps.size(); ++i)
-        if (ps.x[i][0] > ps.x[far][0]) far = i;
-    const double run = ps.x[far][0] - first.topX;
-    const double drop = first.topY - ps.x[far][1];
-    if (run <= 0) return std::nan("");
-    return std::atan2(drop, run) * 180.0 / M_PI;
 }
 
 void writeSummary(const RunState& s, const RunResult& r, int threads) {
