@@ -41,17 +41,57 @@ float groundHeight(const std::vector<Collider>& colliders, float x, float z) {
     return h;
 }
 
-/// Distance from the ground to the base of a layer body: the thicknesses below it.
-double layerBase(const SceneDesc& scene, const BodyDesc& body) {
-    double base = 0.0;
-    for (const BodyDesc* b = &body; b->onTopOf != "ground";) {
-        auto below = std::find_if(scene.bodies.begin(), scene.bodies.end(),
-                                  [&](const BodyDesc& o) { return o.name == b->onTopOf; });
-        if (below == scene.bodies.end()) break; // the parser resolved names; be safe anyway
-        base += below->thickness;
-        b = &*below;
+float standardNormal(std::uint64_t& state) {
+    // Box-Muller on two uniforms in (0, 1].
+    const double u1 = (double(splitMix(state) >> 11) + 1.0) * 0x1.0p-53;
+    state = splitMix(state);
+    const double u2 = double(state >> 11) * 0x1.0p-53;
+    return float(std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2));
+}
+
+/// Thickness of a layer body at (x, z): t0 (1 + std f(x, z)), f a Gaussian random field of unit
+/// variance with correlation exp(-r^2 / (2 l^2)), built from random Fourier modes (Shinozuka and
+/// Deodatis 1991): f = sqrt(2/N) sum cos(k_i . (x, z) + phi_i), k_i ~ N(0, 1/l^2) per axis.
+/// Clamped at 5 % of t0 so that a layer never vanishes. Gaume et al. 2019 use ~25 % and 10 m.
+struct ThicknessField {
+    static constexpr int kModes = 64;
+    double t0 = 0.0, std = 0.0;
+    std::vector<std::array<double, 3>> modes; // kx, kz, phase
+
+    static ThicknessField of(const BodyDesc& body, std::uint64_t seed, std::size_t index, int dim) {
+        ThicknessField f;
+        f.t0 = body.thickness;
+        f.std = body.thicknessNoise.std;
+        if (f.std <= 0.0) return f;
+        std::uint64_t state = splitMix(seed * 0x51ed27ull + index + 0x1234567ull);
+        const double k = 1.0 / body.thicknessNoise.correlationLength;
+        for (int m = 0; m < kModes; ++m) {
+            const double kx = k * standardNormal(state);
+            const double kz = dim == 3 ? k * standardNormal(state) : 0.0;
+            f.modes.push_back({kx, kz, 2.0 * M_PI * uniform01(state)});
+        }
+        return f;
     }
-    return base;
+    double at(double x, double z) const {
+        if (modes.empty()) return t0;
+        double sum = 0.0;
+        for (const auto& m : modes) sum += std::cos(m[0] * x + m[1] * z + m[2]);
+        const double f = std::sqrt(2.0 / kModes) * sum;
+        return t0 * std::max(0.05, 1.0 + std * f);
+    }
+};
+
+/// The layer bodies from `body` down to the ground: body, the one it sits on, ...
+std::vector<std::size_t> layerChain(const SceneDesc& scene, std::size_t body) {
+    std::vector<std::size_t> chain{body};
+    while (scene.bodies[chain.back()].onTopOf != "ground") {
+        const std::string& below = scene.bodies[chain.back()].onTopOf;
+        auto it = std::find_if(scene.bodies.begin(), scene.bodies.end(),
+                               [&](const BodyDesc& o) { return o.name == below; });
+        if (it == scene.bodies.end()) break; // the parser resolved names; be safe anyway
+        chain.push_back(std::size_t(it - scene.bodies.begin()));
+    }
+    return chain;
 }
 
 struct SeedRegion {
@@ -59,8 +99,10 @@ struct SeedRegion {
     std::function<bool(const Vec3f&)> inside;
 };
 
-SeedRegion regionOf(const SceneDesc& scene, const BodyDesc& body,
-                    const std::vector<Collider>& colliders) {
+SeedRegion regionOf(const SceneDesc& scene, std::size_t bodyIndex,
+                    const std::vector<Collider>& colliders,
+                    const std::vector<ThicknessField>& fields) {
+    const BodyDesc& body = scene.bodies[bodyIndex];
     const int dim = scene.simulation.dimension;
     SeedRegion r;
     if (body.shape == BodyShape::Box) {
@@ -80,27 +122,30 @@ SeedRegion regionOf(const SceneDesc& scene, const BodyDesc& body,
         if (colliders.empty())
             throw SceneError(body.loc, "body: shape",
                              "a \"layer\" body needs a [[terrain]] to lie on");
-        if (body.thicknessNoise.std > 0.0)
-            throw SceneError(body.loc, "body: thickness_noise",
-                             "thickness noise needs the noise model, which this build lacks; "
-                             "set std = 0");
-        const float base = float(layerBase(scene, body));
-        const float top = base + float(body.thickness);
+        const std::vector<std::size_t> chain = layerChain(scene, bodyIndex);
+        double maxStack = 0.0; // the thickest the stack can get, for the bounding box
+        for (std::size_t b : chain) maxStack += fields[b].t0 * (1.0 + 5.0 * fields[b].std);
         const float x0 = float(body.xRange[0]), x1 = float(body.xRange[1]);
         const float z0 = dim == 3 ? float(body.zRange[0]) : 0.f;
         const float z1 = dim == 3 ? float(body.zRange[1]) : 0.f;
         float hLo = std::numeric_limits<float>::max(), hHi = -hLo;
-        for (int s = 0; s <= 256; ++s) {
-            const float h = groundHeight(colliders, x0 + (x1 - x0) * s / 256.f, 0.5f * (z0 + z1));
-            hLo = std::min(hLo, h), hHi = std::max(hHi, h);
-        }
+        const int nz = dim == 3 ? 32 : 0;
+        for (int s = 0; s <= 256; ++s)
+            for (int t = 0; t <= nz; ++t) {
+                const float h = groundHeight(colliders, x0 + (x1 - x0) * s / 256.f,
+                                             nz ? z0 + (z1 - z0) * t / float(nz) : z0);
+                hLo = std::min(hLo, h), hHi = std::max(hHi, h);
+            }
         // Normal thickness on slopes up to ~75 degrees fits in 4 times the vertical span.
-        r.lo = Vec3f(x0, hLo - top, z0);
-        r.hi = Vec3f(x1, hHi + 4.f * top, z1);
-        r.inside = [&colliders, x0, x1, z0, z1, base, top, dim](const Vec3f& p) {
+        r.lo = Vec3f(x0, hLo - float(maxStack), z0);
+        r.hi = Vec3f(x1, hHi + 4.f * float(maxStack), z1);
+        r.inside = [&colliders, &fields, chain, x0, x1, z0, z1, dim](const Vec3f& p) {
             if (p[0] < x0 || p[0] >= x1) return false;
             if (dim == 3 && (p[2] < z0 || p[2] >= z1)) return false;
-            const float d = groundDistance(colliders, p);
+            double base = 0.0; // the layers below, each with its thickness here
+            for (std::size_t k = 1; k < chain.size(); ++k) base += fields[chain[k]].at(p[0], p[2]);
+            const double top = base + fields[chain[0]].at(p[0], p[2]);
+            const double d = groundDistance(colliders, p);
             return d >= base && d < top;
         };
     }
@@ -132,10 +177,13 @@ void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders,
     const bool lattice = int(std::lround(std::pow(double(k), dim))) == ppc;
     const float jitter = float(scene.grid.jitter);
 
+    std::vector<ThicknessField> fields;
+    for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi)
+        fields.push_back(ThicknessField::of(scene.bodies[bi], scene.simulation.seed, bi, dim));
     std::vector<SeedRegion> regions;
     for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
         const BodyDesc& body = scene.bodies[bi];
-        regions.push_back(regionOf(scene, body, colliders));
+        regions.push_back(regionOf(scene, bi, colliders, fields));
         const SeedRegion& region = regions.back();
         std::array<long, 3> c0{0, 0, 0}, c1{0, 0, 0};
         for (int a = 0; a < dim; ++a) {

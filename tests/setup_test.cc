@@ -1,0 +1,104 @@
+// Seeding from bodies: layers draped on terrain, saw cuts, thickness noise, overlap.
+#include "test_util.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <map>
+
+using namespace firn;
+
+namespace {
+
+std::string layerScene(const std::string& extraLayerKeys, const std::string& extra = "") {
+    return "[simulation]\nname = \"layers\"\ndimension = 2\nend_time = 1.0\n"
+           "[grid]\ndx = 0.05\nparticles_per_cell = 4\n"
+           "[[material]]\nname = \"snow\"\nmodel = \"elastic\"\n"
+           "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.5, 0.8660254]\n"
+           "[[body]]\nname = \"weak\"\nmaterial = \"snow\"\nshape = \"layer\"\nthickness = 0.1\n"
+           "x_range = [0.0, 40.0]\n"
+           "[[body]]\nname = \"slab\"\nmaterial = \"snow\"\nshape = \"layer\"\non_top_of = "
+           "\"weak\"\n"
+           "thickness = 0.5\nx_range = [0.0, 40.0]\n" +
+           extraLayerKeys + extra;
+}
+
+/// Distance of a point above the 30 degree plane through the origin.
+double aboveSlope(const Vec3f& p) {
+    return 0.5 * p[0] + 0.8660254 * p[1];
+}
+
+} // namespace
+
+TEST_CASE("layers are draped normal to the terrain and stacked", "[setup]") {
+    auto world = buildWorld(test::sceneFromText(layerScene("")));
+    const ParticleSet& ps = world->particles;
+    REQUIRE(world->particlesPerBody.size() == 2);
+    double lo[2] = {1e9, 1e9}, hi[2] = {-1e9, -1e9};
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        // one material for both: tell the layers apart by height above the slope
+        const double d = aboveSlope(ps.x[i]);
+        const int layer = d < 0.1 ? 0 : 1;
+        lo[layer] = std::min(lo[layer], d), hi[layer] = std::max(hi[layer], d);
+    }
+    // Seeds sit inside their layer; with 2 x 2 seeds per 5 cm cell the outermost lie within
+    // half a sub-cell (1.25 cm) plus the jitter of the faces.
+    REQUIRE(lo[0] >= 0.0);
+    REQUIRE(lo[0] < 0.02);
+    REQUIRE(hi[0] < 0.1);
+    REQUIRE(lo[1] >= 0.1);
+    REQUIRE(hi[1] < 0.6);
+    REQUIRE(hi[1] > 0.58);
+    // Particle counts follow the areas: 40 m x 0.1 m and 40 m x 0.5 m at 4 / (0.05 m)^2
+    // (the x range is horizontal, the thickness normal: area = 40 m * t / cos 30).
+    const double perArea = 4.0 / (0.05 * 0.05);
+    REQUIRE(double(world->particlesPerBody[0]) ==
+            Approx(40.0 * 0.1 / 0.8660254 * perArea).epsilon(0.02));
+    REQUIRE(double(world->particlesPerBody[1]) ==
+            Approx(40.0 * 0.5 / 0.8660254 * perArea).epsilon(0.02));
+}
+
+TEST_CASE("a saw cut removes the weak layer over its length only", "[setup]") {
+    auto world = buildWorld(test::sceneFromText(
+        layerScene("", "[[cut]]\nlayer = \"weak\"\nfrom_x = 10.0\nlength = 2.5\n")));
+    const ParticleSet& ps = world->particles;
+    std::size_t weakInCut = 0, slabInCut = 0;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const bool inCut = ps.x[i][0] >= 10.0f && ps.x[i][0] < 12.5f;
+        if (!inCut) continue;
+        (aboveSlope(ps.x[i]) < 0.1 ? weakInCut : slabInCut)++;
+    }
+    REQUIRE(weakInCut == 0);
+    REQUIRE(slabInCut > 1000); // the slab above the cut is still there
+}
+
+TEST_CASE("thickness noise has the asked spread and is set by the seed", "[setup]") {
+    const std::string noisy = "thickness_noise = { std = 0.25, correlation_length = 2.0 }\n";
+    // Put the noise on the slab: insert the key into the second body.
+    std::string text = layerScene("");
+    text.insert(text.find("thickness = 0.5\n") + 16, noisy);
+    auto world = buildWorld(test::sceneFromText(text));
+    const ParticleSet& ps = world->particles;
+    // Slab thickness per 0.5 m strip of x: the highest particle above the slope minus 0.1 m.
+    std::map<int, double> top;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const int strip = int(std::floor(ps.x[i][0] / 0.5f));
+        top[strip] = std::max(top.count(strip) ? top[strip] : 0.0, aboveSlope(ps.x[i]));
+    }
+    double sum = 0, sumSq = 0;
+    for (const auto& [strip, t] : top) sum += t - 0.1, sumSq += (t - 0.1) * (t - 0.1);
+    const double n = double(top.size());
+    const double mean = sum / n, sd = std::sqrt(sumSq / n - mean * mean);
+    INFO("slab thickness: mean " << mean << " m, std " << sd / mean << " of the mean");
+    // 40 m is 20 correlation lengths: the sample std of a unit field scatters by ~1/sqrt(20)
+    // around 1, so accept 0.25 +- 40 %; the mean stays near 0.5 m.
+    REQUIRE(mean == Approx(0.5).epsilon(0.15));
+    REQUIRE(sd / mean > 0.15);
+    REQUIRE(sd / mean < 0.35);
+    // Same seed, same layer; another seed, another layer.
+    auto again = buildWorld(test::sceneFromText(text));
+    REQUIRE(again->particles.size() == ps.size());
+    std::string reseeded = text;
+    reseeded.insert(reseeded.find("end_time"), "seed = 7\n");
+    REQUIRE(buildWorld(test::sceneFromText(reseeded))->particles.size() != ps.size());
+}
