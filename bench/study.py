@@ -141,7 +141,7 @@ def chart_stability(rows, out_dir):
     ax.set_title("Stiff elastic block dropped on the ground: stability map")
     for outcome, colour in colours.items():
         ax.scatter([], [], c=colour, marker="s", label=outcome)
-    ax.legend(loc="upper left", fontsize="small")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
     fig.tight_layout()
     for ext in ("png", "svg"):
         fig.savefig(os.path.join(out_dir, f"stability.{ext}"))
@@ -153,9 +153,17 @@ def main():
     parser.add_argument("--quick", action="store_true", help="small subset with a check (CI)")
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
     parser.add_argument("--out", default=None, help="results folder (default bench/results/<study>)")
+    parser.add_argument("--chart-only", action="store_true",
+                        help="redraw the charts from an existing results.csv")
     args = parser.parse_args()
     out_dir = args.out or os.path.join(ROOT, "bench", "results", args.study)
     os.makedirs(out_dir, exist_ok=True)
+    if args.chart_only:
+        with open(os.path.join(out_dir, "results.csv")) as f:
+            rows = [dict(r, cfl=float(r["cfl"]), particles_per_cell=int(r["particles_per_cell"]))
+                    for r in csv.DictReader(f)]
+        chart_stability(rows, out_dir)
+        return 0
     rows = stability(args, out_dir)
     with open(os.path.join(out_dir, "results.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
