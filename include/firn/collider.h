@@ -2,10 +2,12 @@
 // boundary conditions applied to grid node velocities (Stomakhin et al. 2013, sec. 8).
 #pragma once
 
+#include <firn/dem.h>
 #include <firn/material.h>
 #include <firn/scene.h>
 
 #include <array>
+#include <memory>
 #include <vector>
 
 namespace firn {
@@ -37,6 +39,7 @@ private:
     Vec3f mPoint = Vec3f::Zero();
     Vec3f mNormal = Vec3f::UnitY();
     std::vector<std::array<float, 2>> mProfile;
+    std::shared_ptr<const Heightfield> mHeightfield;
 
     // Nearest point on the profile polyline (x-y plane) and the sign of the side.
     void nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const;

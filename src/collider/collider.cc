@@ -6,10 +6,6 @@
 namespace firn {
 
 Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
-    if (desc.shape == TerrainShape::Heightfield)
-        throw SceneError(desc.loc, "terrain: shape",
-                         "\"heightfield\" terrain needs the DEM reader, which this build lacks; "
-                         "use \"plane\" or \"profile\"");
     Collider c;
     c.mShape = desc.shape;
     c.mBoundary = desc.boundary;
@@ -20,6 +16,8 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     if (dim == 2) c.mPoint[2] = 0.f, c.mNormal[2] = 0.f;
     c.mNormal.normalize();
     for (const auto& p : desc.points) c.mProfile.push_back({float(p[0]), float(p[1])});
+    if (desc.shape == TerrainShape::Heightfield)
+        c.mHeightfield = std::make_shared<const Heightfield>(Heightfield::readEsriAscii(desc.file));
     return c;
 }
 
@@ -42,6 +40,7 @@ void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float&
 }
 
 float Collider::heightAt(float xCoord, float zCoord) const {
+    if (mHeightfield) return mHeightfield->heightAt(xCoord, zCoord);
     if (mShape == TerrainShape::Plane) {
         // n . (x - p) = 0 solved for y; a vertical plane has no height: report -inf.
         if (std::abs(mNormal[1]) < 1e-6f) return -std::numeric_limits<float>::infinity();
@@ -57,6 +56,13 @@ float Collider::heightAt(float xCoord, float zCoord) const {
 
 float Collider::signedDistance(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal.dot(x - mPoint);
+    if (mHeightfield) {
+        // Height above the ground times the cosine of the local slope: the distance to the
+        // tangent plane, exact on planar patches and first order elsewhere.
+        float hx = 0.f, hz = 0.f;
+        mHeightfield->gradientAt(x[0], x[2], hx, hz);
+        return (x[1] - mHeightfield->heightAt(x[0], x[2])) / std::sqrt(1.f + hx * hx + hz * hz);
+    }
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
     return sign * std::sqrt((x[0] - cx) * (x[0] - cx) + (x[1] - cy) * (x[1] - cy));
@@ -64,6 +70,11 @@ float Collider::signedDistance(const Vec3f& x) const {
 
 Vec3f Collider::normal(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal;
+    if (mHeightfield) {
+        float hx = 0.f, hz = 0.f;
+        mHeightfield->gradientAt(x[0], x[2], hx, hz);
+        return Vec3f(-hx, 1.f, -hz).normalized();
+    }
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
     Vec3f n(sign * (x[0] - cx), sign * (x[1] - cy), 0.f);

@@ -1,0 +1,113 @@
+// Terrain colliders: planes, profiles and ESRI ASCII heightfields; boundary conditions.
+#include "test_util.h"
+
+#include <firn/collider.h>
+#include <firn/dem.h>
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <fstream>
+
+using namespace firn;
+
+namespace {
+
+/// A DEM of the plane y = 0.5 x + 0.25 z + 2 on 5 m cells, corner convention.
+std::string writeTiltedDem(const std::string& dir, const std::string& extraRow = "") {
+    const std::string path = dir + "/tilted.asc";
+    std::ofstream out(path);
+    out << "ncols 6\nnrows 4\nxllcorner -2.5\nyllcorner -2.5\ncellsize 5\nNODATA_value -9999\n";
+    for (int fileRow = 0; fileRow < 4; ++fileRow) {
+        const double z = (3 - fileRow) * 5.0; // the first row is the northernmost
+        for (int c = 0; c < 6; ++c) out << 0.5 * (c * 5.0) + 0.25 * z + 2.0 << " ";
+        out << "\n";
+    }
+    out << extraRow;
+    return path;
+}
+
+} // namespace
+
+TEST_CASE("an ESRI ASCII heightfield reproduces a planar terrain", "[collider]") {
+    test::TempDir dir("firn-dem");
+    TerrainDesc desc;
+    desc.shape = TerrainShape::Heightfield;
+    desc.file = writeTiltedDem(dir.path());
+    const Collider ground = Collider::fromDesc(desc, 3);
+    // Bilinear interpolation is exact on a plane; float heights: 1e-4 m.
+    for (float x : {0.f, 3.3f, 12.7f, 24.9f})
+        for (float z : {0.f, 7.1f, 14.9f}) {
+            REQUIRE(ground.heightAt(x, z) == Approx(0.5 * x + 0.25 * z + 2.0).margin(1e-4));
+            const Vec3f p(x, 0.5f * x + 0.25f * z + 2.f + 1.f, z); // 1 m above, vertically
+            const double cosSlope = 1.0 / std::sqrt(1.0 + 0.25 + 0.0625);
+            REQUIRE(ground.signedDistance(p) == Approx(cosSlope).margin(1e-4));
+            const Vec3f n = ground.normal(p);
+            REQUIRE(n[0] == Approx(-0.5 * cosSlope).margin(1e-5));
+            REQUIRE(n[1] == Approx(cosSlope).margin(1e-5));
+            REQUIRE(n[2] == Approx(-0.25 * cosSlope).margin(1e-5));
+        }
+    REQUIRE(ground.signedDistance(Vec3f(5.f, 0.f, 5.f)) < 0.f); // below ground
+}
+
+TEST_CASE("a bad DEM names the file and line", "[collider]") {
+    test::TempDir dir("firn-dem-bad");
+    TerrainDesc desc;
+    desc.shape = TerrainShape::Heightfield;
+    desc.file = dir.path() + "/holes.asc";
+    {
+        std::ofstream out(desc.file);
+        out << "ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\nNODATA_value -9999\n"
+               "1 2\n3 -9999\n";
+    }
+    REQUIRE_THROWS_WITH(Collider::fromDesc(desc, 3),
+                        desc.file + ":8: error: heightfield: NODATA cell at row 2, column 2: "
+                                    "fill the DEM first");
+    {
+        std::ofstream out(desc.file);
+        out << "ncols 3\nnrows 2\nxllcorner 0\ncellsize 1\n1 2 3\n4 5 6\n";
+    }
+    REQUIRE_THROWS_WITH(Collider::fromDesc(desc, 3),
+                        desc.file + ":4: error: heightfield: missing 'yllcorner'");
+}
+
+TEST_CASE("Coulomb friction on a grid node: stick, slip, separate", "[collider]") {
+    TerrainDesc desc;
+    desc.friction = 0.5;
+    const Collider ground = Collider::fromDesc(desc, 3);
+    const Vec3f n(0.f, 1.f, 0.f);
+    // |v_t| = 0.4 <= mu |v_n| = 0.5: sticks
+    REQUIRE(ground.applyBoundary(Vec3f(0.4f, -1.f, 0.f), n).norm() == 0.f);
+    // |v_t| = 2: slides with |v_t| - mu |v_n| = 1.5
+    const Vec3f slid = ground.applyBoundary(Vec3f(2.f, -1.f, 0.f), n);
+    REQUIRE(slid[0] == Approx(1.5f));
+    REQUIRE(slid[1] == 0.f);
+    // separating: untouched
+    REQUIRE(ground.applyBoundary(Vec3f(2.f, 1.f, 0.f), n) == Vec3f(2.f, 1.f, 0.f));
+    desc.boundary = Boundary::Slip;
+    REQUIRE(Collider::fromDesc(desc, 3).applyBoundary(Vec3f(2.f, -1.f, 0.f), n) ==
+            Vec3f(2.f, 0.f, 0.f));
+}
+
+TEST_CASE("a layer drapes over a heightfield", "[collider][setup]") {
+    test::TempDir dir("firn-dem-layer");
+    const std::string dem = writeTiltedDem(dir.path());
+    const std::string text =
+        "[simulation]\nname = \"dem\"\ndimension = 3\n[grid]\ndx = 0.25\nparticles_per_cell = 1\n"
+        "[[material]]\nname = \"snow\"\nmodel = \"elastic\"\n"
+        "[[terrain]]\nshape = \"heightfield\"\nfile = \"" +
+        dem +
+        "\"\n"
+        "[[body]]\nmaterial = \"snow\"\nshape = \"layer\"\nthickness = 0.5\n"
+        "x_range = [2.0, 8.0]\nz_range = [2.0, 6.0]\n";
+    auto world = buildWorld(test::sceneFromText(text, "dem"));
+    const ParticleSet& ps = world->particles;
+    REQUIRE(ps.size() > 100);
+    const double cosSlope = 1.0 / std::sqrt(1.0 + 0.25 + 0.0625);
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const Vec3f& p = ps.x[i];
+        const double above = (p[1] - (0.5 * p[0] + 0.25 * p[2] + 2.0)) * cosSlope;
+        REQUIRE(above >= -1e-4);
+        REQUIRE(above < 0.5 + 1e-4);
+    }
+}
