@@ -7,8 +7,14 @@
 namespace firn {
 
 namespace {
-using MassLeaf = openvdb::FloatTree::LeafNodeType;
-using VelocityLeaf = openvdb::Vec3fTree::LeafNodeType;
+// Trees with 8^3-child internal nodes (leaf 8^3, internal nodes 64^3 and 512^3 voxels) instead of
+// OpenVDB's default 5-4-3: a default top node holds 32^3 child slots (~0.25 MB for float, 0.5 MB
+// for vec3f), and a body that straddles the origin touches eight of them per tree, ~35 bytes per
+// particle at 200 000 particles for slots that stay empty. The leaves are the standard ones.
+using MassTree = openvdb::tree::Tree4<float, 3, 3, 3>::Type;
+using VelocityTree = openvdb::tree::Tree4<openvdb::Vec3f, 3, 3, 3>::Type;
+using MassLeaf = MassTree::LeafNodeType;
+using VelocityLeaf = VelocityTree::LeafNodeType;
 
 openvdb::Coord leafOrigin(const LeafKey& k) {
     return openvdb::Coord(k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim);
@@ -29,8 +35,8 @@ std::int32_t findKey(const std::vector<LeafKey>& keys, const LeafKey& k) {
 } // namespace
 
 struct Grid::Impl {
-    openvdb::FloatTree massTree{0.f};
-    openvdb::Vec3fTree velocityTree{openvdb::Vec3f(0.f)};
+    MassTree massTree{0.f};
+    VelocityTree velocityTree{openvdb::Vec3f(0.f)};
     std::vector<LeafKey> keys;
     std::vector<MassLeaf*> massLeaves;
     std::vector<VelocityLeaf*> velocityLeaves;
