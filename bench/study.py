@@ -11,6 +11,10 @@ Studies:
              solver's own status) or inaccurate (|energy drift| above 5 % of the initial
              energy scale). --quick runs a small subset and checks that APIC at CFL 0.4 is
              stable and that CFL 2.0 is not.
+  accuracy   validation V1 (a stiff block sliding on a 30 degree plane, mu 0.5, analytic
+             a = 0.6571 m/s^2): relative error of the fitted acceleration against wall time
+             and particle-steps over dx x transfer x CFL, log-log, Pareto front marked.
+             --quick runs APIC at two spacings and checks both are within the 3 % of V1.
 """
 import argparse
 import csv
@@ -61,6 +65,40 @@ TRANSFERS = {"apic": ["grid.transfer=apic"], "pic": ["grid.transfer=pic"],
              "flip95": ["grid.transfer=flip", "grid.flip_blend=0.95"],
              "flip99": ["grid.transfer=flip", "grid.flip_blend=0.99"]}
 DRIFT_LIMIT = 0.05  # of the energy scale: kinetic + released potential energy
+
+SLIDING_BLOCK = """
+[simulation]
+name = "sliding-block"
+dimension = 2
+end_time = 1.0
+frame_rate = 20
+gravity = [4.905, -8.49571]
+gravity_ramp = 0.1
+[grid]
+dx = 0.05
+particles_per_cell = 4
+[[material]]
+name = "block"
+model = "elastic"
+density = 1000.0
+youngs_modulus = 1.0e7
+poisson_ratio = 0.3
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+boundary = "friction"
+friction = 0.5
+[[body]]
+material = "block"
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 0.25]
+[output]
+particles = false
+volumes = []
+"""
+SLIDING_EXPECTED = 9.81 * (0.5 - 0.5 * 3 ** 0.5 / 2)  # g (sin 30 - mu cos 30), validation.md V1
 
 
 def commit():
@@ -120,6 +158,81 @@ def stability(args, out_dir):
     return rows
 
 
+def fitted_acceleration(metrics):
+    """a from a least-squares fit x = x0 + v0 t + a t^2 / 2 of com_x over t in [0.2, 1] s."""
+    import numpy as np
+    t = np.array([float(r["time"]) for r in metrics if float(r["time"]) >= 0.2 - 1e-9])
+    x = np.array([float(r["com_x"]) for r in metrics if float(r["time"]) >= 0.2 - 1e-9])
+    return 2.0 * np.polyfit(t, x, 2)[0]
+
+
+def accuracy(args, out_dir):
+    if args.quick:
+        grid = [("apic", 0.1, 0.4), ("apic", 0.05, 0.4)]
+    else:
+        grid = [(t, dx, cfl) for t in ("apic", "pic", "flip95", "flip99")
+                for dx in (0.1, 0.05, 0.025) for cfl in (0.2, 0.4, 0.8)]
+    rows = []
+    with tempfile.TemporaryDirectory() as work:
+        scene = os.path.join(work, "sliding-block.toml")
+        with open(scene, "w") as f:
+            f.write(SLIDING_BLOCK)
+        for transfer, dx, cfl in grid:
+            overrides = TRANSFERS[transfer] + [f"grid.dx={dx}", f"grid.cfl={cfl}"]
+            out = os.path.join(work, f"{transfer}-{dx}-{cfl}")
+            code, summary, metrics = run_scene(args.firn, scene, overrides, out)
+            a = fitted_acceleration(metrics) if summary["status"] == "ok" else float("nan")
+            error = abs(a - SLIDING_EXPECTED) / SLIDING_EXPECTED
+            rows.append({"transfer": transfer, "dx": dx, "cfl": cfl, "acceleration": a,
+                         "relative_error": error, "particles": summary["particles"],
+                         "steps": summary["steps"],
+                         "particle_steps": summary["particles"] * summary["steps"],
+                         "wall_seconds": summary["wall_seconds"], "status": summary["status"],
+                         "overrides": " ".join(overrides)})
+            print(f"{transfer:7s} dx {dx:5.3f} cfl {cfl:3.1f}: a = {a:.5f}, error {error:.2e}",
+                  flush=True)
+    return rows
+
+
+def pareto(points):
+    """Indices of the points not beaten in both cost and error (lower is better)."""
+    front = []
+    for i, (c, e) in enumerate(points):
+        if not any(c2 <= c and e2 <= e and (c2, e2) != (c, e) for c2, e2 in points):
+            front.append(i)
+    return sorted(front, key=lambda i: points[i][0])
+
+
+def chart_accuracy(rows, out_dir):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+        return
+    ok = [r for r in rows if r["status"] == "ok" and float(r["relative_error"]) > 0]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    for ax, cost, label in ((axes[0], "wall_seconds", "wall time (s)"),
+                            (axes[1], "particle_steps", "particle-steps")):
+        for transfer in sorted({r["transfer"] for r in ok}):
+            pts = sorted((float(r[cost]), float(r["relative_error"])) for r in ok
+                         if r["transfer"] == transfer)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=transfer, alpha=0.8)
+        points = [(float(r[cost]), float(r["relative_error"])) for r in ok]
+        front = pareto(points)
+        ax.loglog([points[i][0] for i in front], [points[i][1] for i in front], "k--",
+                  lw=1.5, label="Pareto front")
+        ax.set_xlabel(label)
+        ax.set_ylabel("relative error of the acceleration")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize="small")
+    fig.suptitle("V1 sliding block (30 deg, mu 0.5): accuracy against cost")
+    fig.tight_layout()
+    for ext in ("png", "svg"):
+        fig.savefig(os.path.join(out_dir, f"accuracy.{ext}"))
+
+
 def chart_stability(rows, out_dir):
     try:
         import matplotlib
@@ -147,9 +260,28 @@ def chart_stability(rows, out_dir):
         fig.savefig(os.path.join(out_dir, f"stability.{ext}"))
 
 
+NUMERIC = {"cfl", "particles_per_cell", "dx", "relative_error", "wall_seconds",
+           "particle_steps", "acceleration", "energy_drift", "steps", "particles"}
+
+
+def quick_check(study, rows):
+    """The assertion of each study's quick mode (run in CI)."""
+    if study == "stability":
+        outcome = {(r["transfer"], r["cfl"]): r["outcome"] for r in rows}
+        if outcome[("apic", 0.4)] != "stable" or outcome[("apic", 2.0)] == "stable":
+            print("check failed: APIC must be stable at CFL 0.4 and not at CFL 2.0")
+            return False
+        return True
+    worst = max(float(r["relative_error"]) for r in rows)
+    if not worst < 0.03:  # validation.md V1: 3 %
+        print(f"check failed: acceleration error {worst:.3g} above the 3 % of V1")
+        return False
+    return True
+
+
 def main():
     parser = argparse.ArgumentParser(description="Firn study harness")
-    parser.add_argument("study", choices=["stability"])
+    parser.add_argument("study", choices=["stability", "accuracy"])
     parser.add_argument("--quick", action="store_true", help="small subset with a check (CI)")
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
     parser.add_argument("--out", default=None, help="results folder (default bench/results/<study>)")
@@ -158,27 +290,30 @@ def main():
     args = parser.parse_args()
     out_dir = args.out or os.path.join(ROOT, "bench", "results", args.study)
     os.makedirs(out_dir, exist_ok=True)
+    studies = {"stability": (stability, chart_stability), "accuracy": (accuracy, chart_accuracy)}
+    run, chart = studies[args.study]
     if args.chart_only:
         with open(os.path.join(out_dir, "results.csv")) as f:
-            rows = [dict(r, cfl=float(r["cfl"]), particles_per_cell=int(r["particles_per_cell"]))
+            rows = [{k: (float(v) if k in NUMERIC else v) for k, v in r.items()}
                     for r in csv.DictReader(f)]
-        chart_stability(rows, out_dir)
+        for r in rows:
+            if "particles_per_cell" in r:
+                r["particles_per_cell"] = int(r["particles_per_cell"])
+        chart(rows, out_dir)
         return 0
-    rows = stability(args, out_dir)
+    rows = run(args, out_dir)
     with open(os.path.join(out_dir, "results.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
+    scene = STIFF_BLOCK if args.study == "stability" else SLIDING_BLOCK
     with open(os.path.join(out_dir, "run.json"), "w") as f:
         json.dump({"study": args.study, "quick": args.quick, "commit": commit(),
                    "machine": platform.platform(), "processor": platform.processor(),
-                   "cpus": os.cpu_count(), "scene": STIFF_BLOCK}, f, indent=2)
-    chart_stability(rows, out_dir)
-    if args.quick:
-        outcome = {(r["transfer"], r["cfl"]): r["outcome"] for r in rows}
-        if outcome[("apic", 0.4)] != "stable" or outcome[("apic", 2.0)] == "stable":
-            print("check failed: APIC must be stable at CFL 0.4 and not at CFL 2.0")
-            return 1
+                   "cpus": os.cpu_count(), "scene": scene}, f, indent=2)
+    chart(rows, out_dir)
+    if args.quick and not quick_check(args.study, rows):
+        return 1
     print(f"wrote {out_dir}")
     return 0
 
