@@ -28,6 +28,7 @@ struct Options {
     int threads = 0;
     std::string transfer = "apic";
     std::string model = "elastic";
+    double offset = 0.0; // m, moves the block away from the origin (empty space must cost nothing)
 };
 
 std::string blockScene(const Options& o) {
@@ -54,16 +55,17 @@ youngs_modulus = 1.0e6
 poisson_ratio = 0.3
 [[terrain]]
 shape = "plane"
-point = [0.0, 0.0, 0.0]
+point = [%g, %g, %g]
 normal = [0.0, 1.0, 0.0]
 [[body]]
 material = "block"
 shape = "box"
-min = [0.0, 0.0, 0.0]
+min = [%g, %g, %g]
 max = [%g, %g, %g]
 velocity = [0.5, 0.0, 0.0]
 )",
-                  dx, o.transfer.c_str(), o.model.c_str(), lx, ly, lz);
+                  dx, o.transfer.c_str(), o.model.c_str(), o.offset, o.offset, o.offset,
+                  o.offset, o.offset, o.offset, o.offset + lx, o.offset + ly, o.offset + lz);
     return text;
 }
 
@@ -128,9 +130,12 @@ Options parseOptions(int argc, char** argv) {
             o.transfer = value();
         else if (a == "--model")
             o.model = value();
+        else if (a == "--offset")
+            o.offset = std::atof(value().c_str());
         else {
             std::fprintf(stderr, "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
-                                 "[--transfer apic|pic|flip] [--model elastic|snow|granular]\n");
+                                 "[--transfer apic|pic|flip] [--model elastic|snow|granular] "
+                                 "[--offset M]\n");
             std::exit(a == "--help" ? 0 : 1);
         }
     }
@@ -163,6 +168,12 @@ int main(int argc, char** argv) {
     std::printf("peak RSS %.1f MB: %.0f bytes per particle; without the %.1f MB the process holds "
                 "before seeding (shared libraries): %.0f bytes per particle\n",
                 peak / 1e6, peak / one.particles, baseline / 1e6,
+                (peak - baseline) / one.particles);
+    // One machine-readable line for bench/study.py.
+    std::printf("result particles=%zu threads=%d pss1=%.6g pssN=%.6g speedup=%.4g "
+                "bytes_per_particle=%.1f bytes_per_particle_net=%.1f\n",
+                one.particles, threads, one.particleStepsPerSecond, many.particleStepsPerSecond,
+                many.particleStepsPerSecond / one.particleStepsPerSecond, peak / one.particles,
                 (peak - baseline) / one.particles);
     return 0;
 }

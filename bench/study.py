@@ -15,6 +15,9 @@ Studies:
              a = 0.6571 m/s^2): relative error of the fitted acceleration against wall time
              and particle-steps over dx x transfer x CFL, log-log, Pareto front marked.
              --quick runs APIC at two spacings and checks both are within the 3 % of V1.
+  throughput build/firn_bench on elastic blocks of 7 000 to 1 600 000 particles: particle-steps
+             per second with 1 thread and all threads, bytes per particle; and the same block
+             at the origin and 1 km away (a sparse grid must not care). Not in CI (timings).
 """
 import argparse
 import csv
@@ -194,6 +197,59 @@ def accuracy(args, out_dir):
     return rows
 
 
+def run_bench(bench, cells, steps, offset=0.0):
+    out = subprocess.run([bench, "--cells", str(cells), "--steps", str(steps),
+                          "--offset", str(offset)], capture_output=True, text=True, check=True)
+    line = [l for l in out.stdout.splitlines() if l.startswith("result ")][-1]
+    return {k: float(v) for k, v in (kv.split("=") for kv in line.split()[1:])}
+
+
+def throughput(args, out_dir):
+    bench = os.path.join(os.path.dirname(args.firn), "firn_bench")
+    rows = []
+    for cells in ([10, 20] if args.quick else [10, 15, 20, 30, 45, 60]):
+        for offset in ([0.0, 1000.0] if cells == 20 else [0.0]):
+            steps = int(max(10, min(60, 4e7 / (7400 * (cells / 10) ** 3))))
+            r = run_bench(bench, cells, steps, offset)
+            r.update({"cells": cells, "offset_m": offset, "steps": steps})
+            rows.append(r)
+            print(f"{int(r['particles']):8d} particles (offset {offset:g} m): "
+                  f"{r['pss1'] / 1e6:.2f} M/s 1 thread, {r['pssN'] / 1e6:.2f} M/s "
+                  f"{int(r['threads'])} threads, {r['bytes_per_particle_net']:.0f} B/particle",
+                  flush=True)
+    return rows
+
+
+def chart_throughput(rows, out_dir):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+        return
+    at0 = sorted((r for r in rows if float(r["offset_m"]) == 0.0), key=lambda r: r["particles"])
+    n = [r["particles"] for r in at0]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    axes[0].semilogx(n, [r["pss1"] / 1e6 for r in at0], "o-", label="1 thread")
+    axes[0].semilogx(n, [r["pssN"] / 1e6 for r in at0], "o-",
+                     label=f"{int(at0[0]['threads'])} threads")
+    axes[0].set_ylabel("million particle-steps per second")
+    axes[1].semilogx(n, [r["bytes_per_particle_net"] for r in at0], "o-",
+                     label="simulation (peak RSS - libraries)")
+    axes[1].semilogx(n, [r["bytes_per_particle"] for r in at0], "o--", label="peak RSS")
+    axes[1].set_yscale("log")
+    axes[1].set_ylabel("bytes per particle")
+    for ax in axes:
+        ax.set_xlabel("particles")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize="small")
+    fig.suptitle("Elastic block, APIC, dx 0.02: throughput and memory")
+    fig.tight_layout()
+    for ext in ("png", "svg"):
+        fig.savefig(os.path.join(out_dir, f"throughput.{ext}"))
+
+
 def pareto(points):
     """Indices of the points not beaten in both cost and error (lower is better)."""
     front = []
@@ -261,11 +317,15 @@ def chart_stability(rows, out_dir):
 
 
 NUMERIC = {"cfl", "particles_per_cell", "dx", "relative_error", "wall_seconds",
-           "particle_steps", "acceleration", "energy_drift", "steps", "particles"}
+           "particle_steps", "acceleration", "energy_drift", "steps", "particles", "pss1",
+           "pssN", "threads", "speedup", "bytes_per_particle", "bytes_per_particle_net", "cells",
+           "offset_m"}
 
 
 def quick_check(study, rows):
     """The assertion of each study's quick mode (run in CI)."""
+    if study == "throughput":
+        return True  # timings are reported, never asserted
     if study == "stability":
         outcome = {(r["transfer"], r["cfl"]): r["outcome"] for r in rows}
         if outcome[("apic", 0.4)] != "stable" or outcome[("apic", 2.0)] == "stable":
@@ -281,7 +341,7 @@ def quick_check(study, rows):
 
 def main():
     parser = argparse.ArgumentParser(description="Firn study harness")
-    parser.add_argument("study", choices=["stability", "accuracy"])
+    parser.add_argument("study", choices=["stability", "accuracy", "throughput"])
     parser.add_argument("--quick", action="store_true", help="small subset with a check (CI)")
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
     parser.add_argument("--out", default=None, help="results folder (default bench/results/<study>)")
@@ -290,7 +350,8 @@ def main():
     args = parser.parse_args()
     out_dir = args.out or os.path.join(ROOT, "bench", "results", args.study)
     os.makedirs(out_dir, exist_ok=True)
-    studies = {"stability": (stability, chart_stability), "accuracy": (accuracy, chart_accuracy)}
+    studies = {"stability": (stability, chart_stability), "accuracy": (accuracy, chart_accuracy),
+               "throughput": (throughput, chart_throughput)}
     run, chart = studies[args.study]
     if args.chart_only:
         with open(os.path.join(out_dir, "results.csv")) as f:
@@ -306,7 +367,8 @@ def main():
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
-    scene = STIFF_BLOCK if args.study == "stability" else SLIDING_BLOCK
+    scene = {"stability": STIFF_BLOCK, "accuracy": SLIDING_BLOCK,
+             "throughput": "bench/bench_core.cc blockScene()"}[args.study]
     with open(os.path.join(out_dir, "run.json"), "w") as f:
         json.dump({"study": args.study, "quick": args.quick, "commit": commit(),
                    "machine": platform.platform(), "processor": platform.processor(),
