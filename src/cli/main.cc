@@ -38,6 +38,8 @@ options:
   --out DIR          output folder, overrides output.directory
   --set key=value    override a scene value, e.g. --set grid.dx=0.025
                      --set simulation.end_time=0.5 --set material.slab.youngs_modulus=2e6
+                     --set body.weak.thickness=0.05 (a named body)
+                     --set cut.weak.length=0.4 (the [[cut]] of layer "weak")
                      (repeatable; the value is TOML: strings need quotes or are bare words)
   --quiet            no progress line on stderr
   -h, --help         this text
