@@ -131,10 +131,9 @@ std::string cell(double v) {
     return formatNumber(v);
 }
 
-/// Writes frame k: particle and volume caches and the metrics row.
-FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch) {
+/// Writes frame k (its diagnostics `d` already computed): caches and the metrics row.
+void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWatch* watch) {
     World& w = s.world;
-    const FrameDiagnostics d = computeDiagnostics(w);
     const FrameInfo info{k, w.time, s.scene.simulation.frameRate};
     const OutputDesc& out = s.scene.output;
     w.grid.rebuild(w.particles, 0);
@@ -171,7 +170,6 @@ FrameDiagnostics writeFrame(RunState& s, int k, const StabilityWatch* watch) {
                          cell(watch ? watch->drift(d) : 0.0),
                          cell(d.crackMinX),
                          cell(d.crackMaxX)});
-    return d;
 }
 
 void writeSummary(const RunState& s, const RunResult& r, int threads) {
@@ -236,7 +234,8 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
         std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
     Progress progress(options.quiet, frames);
 
-    s.first = s.last = writeFrame(s, 0, nullptr);
+    s.first = s.last = computeDiagnostics(*world);
+    writeFrame(s, 0, s.first, nullptr);
     const StabilityWatch watch(s.first, *world);
     result.frames = 1;
     for (int k = 1; k <= frames && result.status == "ok"; ++k) {
@@ -261,7 +260,8 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
                 "unstable: " + why + "; last good frame is " + std::to_string(result.frames - 1);
             break;
         }
-        s.last = writeFrame(s, k, &watch);
+        s.last = d;
+        writeFrame(s, k, d, &watch);
         ++result.frames;
         progress.frame(k, world->time, world->particles.size(), world->steps,
                        secondsSince(s.start));
