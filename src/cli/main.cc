@@ -1,5 +1,5 @@
 // firn: run, check scenes. Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable,
-// 3 I/O error, 130 interrupted (SIGINT/SIGTERM).
+// 3 I/O error, 4 internal error (a bug: please report), 130 interrupted (SIGINT/SIGTERM).
 #include <firn/errors.h>
 #include <firn/run.h>
 #include <firn/scene.h>
@@ -24,7 +24,7 @@ commands:
   check   parse and validate the scene, print what it would simulate, run nothing
 
 Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O error,
-130 interrupted. See README.md for the scene reference.
+4 internal error, 130 interrupted. See README.md for the scene reference.
 )";
 
 const char* kRunHelp = R"(usage: firn run SCENE.toml [options]
