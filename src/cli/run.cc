@@ -2,6 +2,7 @@
 #include <firn/io.h>
 #include <firn/run.h>
 #include <firn/solver.h>
+#include <firn/terrain_export.h>
 
 #include <tbb/global_control.h>
 #include <tbb/info.h>
@@ -229,6 +230,7 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
 
     std::unique_ptr<World> world = buildWorld(scene);
+    exportTerrain(scene, world->colliders, result.outDir); // terrain.obj, terrain.vdb
     RunState s(scene, *world, result.outDir);
     const int frames =
         std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
