@@ -31,6 +31,7 @@ struct VolumeFrame {
     std::vector<float> density;                 ///< kg/m^3, 512 per block
     std::vector<std::array<float, 3>> velocity; ///< m/s, 512 per block
     std::vector<float> failed;                  ///< failed mass fraction 0..1, 512 per block
+    std::vector<float> eta;                     ///< mass-weighted mean eta, 512 per block
 };
 
 /// Metadata stored on every grid of a frame.
@@ -46,7 +47,7 @@ void writeParticleCache(const std::string& dir, const FrameInfo& info, double vo
                         const ParticleFrame& particles);
 
 /// Writes `dir/volume.NNNN.vdb` with the grids named in `grids` (of "density", "velocity",
-/// "failed"), atomically as above. Throws IoError.
+/// "failed", "eta"), atomically as above. Throws IoError.
 void writeVolumeCache(const std::string& dir, const FrameInfo& info, const VolumeFrame& volume,
                       const std::vector<std::string>& grids);
 

@@ -6,6 +6,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@ enum class MaterialModel { Elastic, Snow, WeakLayer, Granular };
 enum class TerrainShape { Plane, Profile, Heightfield };
 enum class Boundary { Friction, Slip, Sticky };
 enum class BodyShape { Box, Sphere, Layer };
+enum class ColorBy { Density, Speed, Failed, Eta };
 
 /// [simulation]
 struct SimulationDesc {
@@ -108,7 +110,23 @@ struct CutDesc {
 struct OutputDesc {
     std::string directory; ///< default out/<name>
     bool particles = true;
-    std::vector<std::string> volumes = {"density", "velocity"}; ///< of density, velocity, failed
+    /// of density, velocity, failed, eta
+    std::vector<std::string> volumes = {"density", "velocity"};
+};
+
+/// [render]: defaults for `firn render` (its command-line options override them).
+struct RenderDesc {
+    int width = 960;  ///< pixels
+    int height = 540; ///< pixels
+    ColorBy colorBy = ColorBy::Speed;
+    /// Colour-map range; both NaN = automatic (0 to the largest value over the frames).
+    std::array<double, 2> colorRange = {std::numeric_limits<double>::quiet_NaN(),
+                                        std::numeric_limits<double>::quiet_NaN()};
+    bool autoCamera = true; ///< false once camera_position and look_at are given
+    Vec3d cameraPosition = {0.0, 0.0, 0.0}; ///< m
+    Vec3d lookAt = {0.0, 0.0, 0.0};         ///< m
+    double fovDeg = 40.0;                   ///< vertical field of view, degrees
+    int contactFrames = 12;                 ///< frames on the contact sheet
 };
 
 struct SceneDesc {
@@ -120,6 +138,7 @@ struct SceneDesc {
     std::vector<BodyDesc> bodies;
     std::vector<CutDesc> cuts;
     OutputDesc output;
+    RenderDesc render;
     std::string resolvedToml; ///< the scene as run, overrides applied, as TOML text
 };
 
@@ -134,5 +153,8 @@ SceneDesc parseScene(const std::string& text, const std::string& path,
 
 const char* toString(Transfer);
 const char* toString(MaterialModel);
+const char* toString(ColorBy);
+/// Reads a colour-by word ("density", "speed", "failed", "eta"); false if it is none of them.
+bool parseColorBy(const std::string& word, ColorBy& out);
 
 } // namespace firn

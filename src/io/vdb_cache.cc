@@ -147,6 +147,7 @@ struct VolumeGrids {
     openvdb::FloatGrid::Ptr density;
     openvdb::Vec3fGrid::Ptr velocity;
     openvdb::FloatGrid::Ptr failed;
+    openvdb::FloatGrid::Ptr eta;
 };
 
 VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double voxelSize) {
@@ -161,9 +162,11 @@ VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double v
             out.velocity->setVectorType(openvdb::VEC_CONTRAVARIANT_RELATIVE);
         } else if (name == "failed") {
             out.failed = openvdb::FloatGrid::create(0.f);
+        } else if (name == "eta") {
+            out.eta = openvdb::FloatGrid::create(0.f);
         } else {
             throw std::invalid_argument("unknown volume grid '" + name +
-                                        "' (expected density, velocity or failed)");
+                                        "' (expected density, velocity, failed or eta)");
         }
     }
     // Node i of the simulation grid sits at i*dx, which is VDB index space times the voxel
@@ -172,6 +175,7 @@ VolumeGrids makeEmptyVolumeGrids(const std::vector<std::string>& names, double v
     if (out.density) out.density->setTransform(xform->copy());
     if (out.velocity) out.velocity->setTransform(xform->copy());
     if (out.failed) out.failed->setTransform(xform->copy());
+    if (out.eta) out.eta->setTransform(xform->copy());
     return out;
 }
 
@@ -197,12 +201,14 @@ void fillBlock(const VolumeFrame& volume, size_t block, VolumeGrids& grids) {
     auto* density = touchLeaf(grids.density.get(), origin);
     auto* velocity = touchLeaf(grids.velocity.get(), origin);
     auto* failed = touchLeaf(grids.failed.get(), origin);
+    auto* eta = touchLeaf(grids.eta.get(), origin);
     const size_t base = block * kLeafVoxels;
     for (Index i = 0; i < kLeafVoxels; ++i) {
         if (!(volume.density[base + i] > 0.f)) continue;
         if (density) density->setValueOn(i, volume.density[base + i]);
         if (velocity) velocity->setValueOn(i, toVdb(volume.velocity[base + i]));
         if (failed) failed->setValueOn(i, volume.failed[base + i]);
+        if (eta) eta->setValueOn(i, volume.eta[base + i]);
     }
 }
 
@@ -211,6 +217,7 @@ void checkVolume(const VolumeFrame& volume, const VolumeGrids& grids) {
     checkLength(volume.density, values, "density"); // needed by every grid: it sets activity
     if (grids.velocity) checkLength(volume.velocity, values, "velocity");
     if (grids.failed) checkLength(volume.failed, values, "failed");
+    if (grids.eta) checkLength(volume.eta, values, "eta");
     for (const auto& o : volume.origin) {
         if ((o[0] | o[1] | o[2]) & 7) {
             throw std::invalid_argument("volume block origin (" + std::to_string(o[0]) + ", " +
@@ -230,6 +237,7 @@ VolumeGrids makeVolumeGrids(const VolumeFrame& volume, const std::vector<std::st
     if (grids.density) grids.density->setName("density");
     if (grids.velocity) grids.velocity->setName("velocity");
     if (grids.failed) grids.failed->setName("failed");
+    if (grids.eta) grids.eta->setName("eta");
     return grids;
 }
 
@@ -325,6 +333,7 @@ void writeVolumeCache(const std::string& dir, const FrameInfo& info, const Volum
     if (built.density) out.push_back(built.density);
     if (built.velocity) out.push_back(built.velocity);
     if (built.failed) out.push_back(built.failed);
+    if (built.eta) out.push_back(built.eta);
     for (const auto& grid : out) setFrameMetadata(*grid, info);
     writeGridsAtomic(dir, frameFileName("volume", info.frame), {out.begin(), out.end()});
 }

@@ -28,6 +28,10 @@ const Named<Boundary> kBoundaries[] = {
     {"friction", Boundary::Friction}, {"slip", Boundary::Slip}, {"sticky", Boundary::Sticky}};
 const Named<BodyShape> kBodyShapes[] = {
     {"box", BodyShape::Box}, {"sphere", BodyShape::Sphere}, {"layer", BodyShape::Layer}};
+const Named<ColorBy> kColorBy[] = {{"density", ColorBy::Density},
+                                   {"speed", ColorBy::Speed},
+                                   {"failed", ColorBy::Failed},
+                                   {"eta", ColorBy::Eta}};
 
 // Which models use a material parameter, as bits indexed by MaterialModel.
 constexpr unsigned kElastic = 1u << static_cast<unsigned>(MaterialModel::Elastic);
@@ -322,7 +326,24 @@ CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
 void readOutput(TableReader& r, OutputDesc& output) {
     r.string("directory", output.directory);
     r.boolean("particles", output.particles);
-    r.stringList("volumes", output.volumes, {"density", "velocity", "failed"});
+    r.stringList("volumes", output.volumes, {"density", "velocity", "failed", "eta"});
+    r.finish();
+}
+
+void readRender(TableReader& r, RenderDesc& render) {
+    r.integer("width", render.width, Range::closed(16, 8192));
+    r.integer("height", render.height, Range::closed(16, 8192));
+    r.choice("color_by", render.colorBy, kColorBy);
+    r.interval("color_range", render.colorRange);
+    if (r.has("camera_position") != r.has("look_at")) {
+        r.failAt(r.has("look_at") ? "camera_position" : "look_at",
+                 "camera_position and look_at go together (or leave both out for the "
+                 "automatic camera)");
+    }
+    render.autoCamera = !r.vector("camera_position", render.cameraPosition);
+    r.vector("look_at", render.lookAt);
+    r.real("fov_deg", render.fovDeg, Range::open(1.0, 170.0));
+    r.integer("contact_frames", render.contactFrames, Range::closed(1, 64));
     r.finish();
 }
 
@@ -362,8 +383,22 @@ SceneDesc readScene(const toml::table& root, const std::string& path) {
                  [&](TableReader& entry) { scene.cuts.push_back(readCut(entry, scene.bodies)); });
     if (auto t = r.subTable("output", "output.")) readOutput(*t, scene.output);
     if (scene.output.directory.empty()) scene.output.directory = "out/" + scene.simulation.name;
+    if (auto t = r.subTable("render", "render.")) readRender(*t, scene.render);
     r.finish();
     return scene;
+}
+
+// The as-run copy of a scene (outputs.md) lives in another folder than the scene: its terrain
+// files are written as absolute paths so that the copy loads, and repeats the run, from there.
+void absoluteTerrainFiles(toml::table& root, const SceneDesc& desc) {
+    toml::array* terrains = root["terrain"].as_array();
+    for (std::size_t i = 0; terrains && i < terrains->size() && i < desc.terrains.size(); ++i) {
+        toml::table* terrain = (*terrains)[i].as_table();
+        if (terrain && terrain->contains("file")) {
+            terrain->insert_or_assign(
+                "file", std::filesystem::absolute(desc.terrains[i].file).lexically_normal().string());
+        }
+    }
 }
 
 toml::table parseDocument(const std::string& text, const std::string& path) {
@@ -384,6 +419,7 @@ SceneDesc parseScene(const std::string& text, const std::string& path,
     toml::table root = scene::parseDocument(text, path);
     scene::applyOverrides(root, overrides);
     SceneDesc desc = scene::readScene(root, path);
+    scene::absoluteTerrainFiles(root, desc);
     std::ostringstream resolved;
     resolved << root;
     desc.resolvedToml = resolved.str();
@@ -396,6 +432,18 @@ SceneDesc loadScene(const std::string& path, const std::vector<std::string>& ove
     std::ostringstream text;
     text << in.rdbuf();
     return parseScene(text.str(), path, overrides);
+}
+
+const char* toString(ColorBy colorBy) { return scene::nameOf(colorBy, scene::kColorBy); }
+
+bool parseColorBy(const std::string& word, ColorBy& out) {
+    for (const auto& n : scene::kColorBy) {
+        if (word == n.name) {
+            out = n.value;
+            return true;
+        }
+    }
+    return false;
 }
 
 const char* toString(Transfer transfer) {

@@ -301,11 +301,12 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
 
 template <int Dim>
 VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& scratch) {
-    scatterLeaves<Dim, 5, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f&) {
+    scatterLeaves<Dim, 6, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f&) {
         const float m = ps.mass[i];
         value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
         value[3] = m * ps.v[i][2];
         value[4] = (ps.plastic[i].flags & kFlagFailed) ? m : 0.f;
+        value[5] = m * ps.plastic[i].eta;
     });
     VolumeFrame vf;
     vf.voxelSize = ps.dx;
@@ -314,17 +315,19 @@ VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& 
     vf.density.assign(nb * kLeafNodes, 0.f);
     vf.velocity.assign(nb * kLeafNodes, {0.f, 0.f, 0.f});
     vf.failed.assign(nb * kLeafNodes, 0.f);
+    vf.eta.assign(nb * kLeafNodes, 0.f);
     const float cellVolume = Dim == 3 ? ps.dx * ps.dx * ps.dx : ps.dx * ps.dx;
-    mergeBlocks<Dim, 5>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+    mergeBlocks<Dim, 6>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
         const LeafKey& k = grid.blockKey(b);
         vf.origin[b] = {k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim};
         for (int n = 0; n < kLeafNodes; ++n) {
-            const float m = acc[5 * n];
+            const float m = acc[6 * n];
             if (m <= 0.f) continue;
             const std::size_t at = b * kLeafNodes + n;
             vf.density[at] = m / cellVolume;
-            vf.velocity[at] = {acc[5 * n + 1] / m, acc[5 * n + 2] / m, acc[5 * n + 3] / m};
-            vf.failed[at] = std::min(1.f, acc[5 * n + 4] / m);
+            vf.velocity[at] = {acc[6 * n + 1] / m, acc[6 * n + 2] / m, acc[6 * n + 3] / m};
+            vf.failed[at] = std::min(1.f, acc[6 * n + 4] / m);
+            vf.eta[at] = acc[6 * n + 5] / m;
         }
     });
     return vf;
