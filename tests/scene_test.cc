@@ -365,7 +365,7 @@ poisson_ratio = 0.7
           "scenes/test.toml:2:7: error: grid.cfl: must be in (0, 10], got 0");
     CHECK(errorOf("[output]\nvolumes = [\"density\", \"speed\"]\n") ==
           "scenes/test.toml:2:23: error: output.volumes: entries must be one of \"density\", "
-          "\"velocity\", \"failed\", got \"speed\"");
+          "\"velocity\", \"failed\", \"eta\", got \"speed\"");
     CHECK(errorOf("[grid]\ntransfer = \"mls\"\n") ==
           "scenes/test.toml:2:12: error: grid.transfer: must be one of \"apic\", \"pic\", "
           "\"flip\", got \"mls\"");
@@ -457,4 +457,42 @@ TEST_CASE("loadScene reads a file and names one it cannot open", "[scene]") {
     CHECK(scene.simulation.seed == 7u);
     CHECK_THROWS_WITH(loadScene(folder + "/absent.toml"),
                       folder + "/absent.toml: error: cannot open scene file");
+}
+
+TEST_CASE("[render] sets the review renderer's defaults", "[scene]") {
+    const SceneDesc d = parseScene(kMinimal + R"(
+[render]
+width = 1280
+height = 720
+color_by = "eta"
+color_range = [0.0, 0.2]
+camera_position = [10.0, 5.0, 20.0]
+look_at = [10.0, 0.0, 0.0]
+fov_deg = 30.0
+contact_frames = 6
+)",
+                                   kPath);
+    CHECK(d.render.width == 1280);
+    CHECK(d.render.height == 720);
+    CHECK(d.render.colorBy == ColorBy::Eta);
+    CHECK(d.render.colorRange[1] == 0.2);
+    CHECK_FALSE(d.render.autoCamera);
+    CHECK(d.render.cameraPosition[2] == 20.0);
+    CHECK(d.render.lookAt[0] == 10.0);
+    CHECK(d.render.fovDeg == 30.0);
+    CHECK(d.render.contactFrames == 6);
+    const SceneDesc plain = parseScene(kMinimal, kPath);
+    CHECK(plain.render.autoCamera);
+    CHECK(plain.render.colorBy == ColorBy::Speed);
+    CHECK(std::isnan(plain.render.colorRange[0]));
+}
+
+TEST_CASE("[render] errors name the key", "[scene][errors]") {
+    CHECK(errorOf(kMinimal + "\n[render]\ncamera_position = [1.0, 2.0, 3.0]\n")
+              .find("render.look_at: missing required key for a positioned camera") !=
+          std::string::npos);
+    CHECK(errorOf(kMinimal + "\n[render]\ncolor_by = \"velocity\"\n")
+              .find("render.color_by: must be one of \"density\", \"speed\", \"failed\", "
+                    "\"eta\", got \"velocity\"") != std::string::npos);
+    CHECK(errorOf(kMinimal, {"render.width=3"}).find("render.width") != std::string::npos);
 }

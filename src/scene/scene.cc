@@ -335,10 +335,9 @@ void readRender(TableReader& r, RenderDesc& render) {
     r.integer("height", render.height, Range::closed(16, 8192));
     r.choice("color_by", render.colorBy, kColorBy);
     r.interval("color_range", render.colorRange);
-    if (r.has("camera_position") != r.has("look_at")) {
-        r.failAt(r.has("look_at") ? "camera_position" : "look_at",
-                 "camera_position and look_at go together (or leave both out for the "
-                 "automatic camera)");
+    if (r.has("camera_position") || r.has("look_at")) {
+        r.require({"camera_position", "look_at"},
+                  "a positioned camera (leave both out for the automatic one)");
     }
     render.autoCamera = !r.vector("camera_position", render.cameraPosition);
     r.vector("look_at", render.lookAt);
