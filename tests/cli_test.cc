@@ -574,6 +574,8 @@ TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame"
     const auto rows = checkMetrics(out + "/metrics.csv", 4);
     checkFrames(out, 4);
     const std::set<std::string> expected = {"scene.toml",
+                                            "terrain.obj",
+                                            "terrain.vdb",
                                             "metrics.csv",
                                             "summary.json",
                                             "frames/particles.0000.vdb",
