@@ -1,0 +1,520 @@
+#!/usr/bin/python3
+"""Charts and report.html for a run folder; `firn report OUT_DIR` calls it.
+
+Reads OUT_DIR/metrics.csv, summary.json, scene.toml and the tables that `firn report` reduced
+from the particle caches (OUT_DIR/report/data: weak_layer.csv, map_frames.csv, report.json).
+Writes OUT_DIR/report/*.png and OUT_DIR/report/report.html, a single file with the images
+embedded, so that it can be mailed or archived on its own.
+
+Figures follow Gaume et al. (2019, Cold Reg. Sci. Technol. 168:102847): Fig. A1 (weak layer
+seen from above), Fig. 3 bottom (crack speed along the slope), Fig. 7 (McClung & Gauer 2018).
+"""
+import argparse
+import base64
+import html
+import json
+import math
+import pathlib
+import sys
+import tomllib
+
+import numpy as np
+import matplotlib
+
+matplotlib.use("Agg")  # no display: files only
+import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+
+DPI = 120
+# One colour map per quantity, the same in every chart. Fig. A1 shows failed weak layer white
+# on black elastic, p from black to yellow and slab speed from white to red.
+CMAP_FAILED = "gray"
+CMAP_P = "inferno"
+CMAP_SPEED = "Reds"
+# Cells without weak layer (the saw cut, outside the layer) are drawn in this colour, distinct
+# from both ends of the grey failed/elastic scale.
+NO_LAYER = "#c9d6e3"
+# McClung & Gauer (2018) as quoted by Gaume et al. (2019): u_m ~ 1.5 L^(1/2), alpha 20-30 deg.
+MG_COEFFICIENT = 1.5
+ALPHA_BAND = (20.0, 30.0)
+
+
+class ReportError(Exception):
+    """A file the report needs is missing or malformed."""
+
+
+def read_csv(path):
+    """Columns of a CSV file with a header row as float arrays (empty cells: NaN)."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = f.readline().strip().split(",")
+            rows = [line.rstrip("\n").split(",") for line in f if line.strip()]
+    except OSError as e:
+        raise ReportError(f"cannot read {path}: {e.strerror}") from e
+    if header == [""]:
+        raise ReportError(f"{path}: empty file, expected a header row")
+    columns = {}
+    for c, name in enumerate(header):
+        try:
+            columns[name] = np.array([float(r[c]) if r[c] != "" else np.nan for r in rows])
+        except (ValueError, IndexError) as e:
+            raise ReportError(f"{path}: column '{name}': {e}") from e
+    return columns
+
+
+def read_json(path):
+    try:
+        with open(path, encoding="utf-8") as f:
+            return json.load(f)
+    except OSError as e:
+        raise ReportError(f"cannot read {path}: {e.strerror}") from e
+    except json.JSONDecodeError as e:
+        raise ReportError(f"{path}: line {e.lineno}: {e.msg}") from e
+
+
+class Run:
+    """Everything the charts draw from, read once."""
+
+    def __init__(self, out_dir):
+        self.out_dir = pathlib.Path(out_dir)
+        self.report_dir = self.out_dir / "report"
+        data = self.report_dir / "data"
+        self.metrics = read_csv(self.out_dir / "metrics.csv")
+        self.summary = read_json(self.out_dir / "summary.json")
+        self.info = read_json(data / "report.json")
+        self.weak = read_csv(data / "weak_layer.csv")
+        maps = read_csv(data / "map_frames.csv")
+        self.map_frames = maps["frame"].astype(int)
+        self.map_times = maps["time"]
+        try:
+            with open(self.out_dir / "scene.toml", "rb") as f:
+                self.scene = tomllib.load(f)
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise ReportError(f"cannot read {self.out_dir / 'scene.toml'}: {e}") from e
+        self.name = self.scene.get("simulation", {}).get("name", self.out_dir.name)
+        self.dimension = int(self.info["dimension"])
+        self.dx = float(self.info["dx"])
+
+    def column(self, name):
+        if name not in self.metrics:
+            raise ReportError(f"{self.out_dir / 'metrics.csv'}: no column '{name}'")
+        return self.metrics[name]
+
+    @property
+    def has_weak_layer(self):
+        return self.info["weak_layer_materials"] != ""
+
+    @property
+    def has_map_data(self):
+        return self.weak["frame"].size > 0
+
+    @property
+    def has_crack(self):
+        return bool(np.isfinite(self.column("crack_tip_x")).any())
+
+    def path_length(self):
+        """L: straight distance from the release's highest point to the deposit's farthest one."""
+        ends = [self.info.get(k) for k in
+                ("release_top_x", "release_top_y", "deposit_far_x", "deposit_far_y")]
+        if any(v is None for v in ends):
+            return None
+        x0, y0, x1, y1 = ends
+        return math.hypot(x1 - x0, y1 - y0)
+
+
+def save(fig, path):
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def shared_range(values, low=1.0, high=99.0):
+    """Colour range from percentiles, so that a few extreme particles do not wash a map out."""
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return 0.0, 1.0
+    lo, hi = np.percentile(finite, [low, high])
+    return (float(lo), float(hi)) if hi > lo else (float(lo), float(lo) + 1.0)
+
+
+def cell_index(coord, dx):
+    """Cell centres (i + 0.5) dx back to the integer i."""
+    return np.rint(coord / dx - 0.5).astype(int)
+
+
+# Failure maps ----------------------------------------------------------------------------------
+
+# (column of weak_layer.csv, title, colour map, colour-bar label, short name for small panels)
+MAP_ROWS = (
+    ("failed_fraction", "weak layer failed (white) / elastic (black)", CMAP_FAILED,
+     "failed fraction", "failed / elastic"),
+    ("p", "weak-layer pressure p", CMAP_P, "p (kPa)", "pressure p"),
+    ("slab_speed", "slab speed above the weak layer", CMAP_SPEED, "speed (m/s)", "slab speed"),
+)
+
+
+def map_value(run, key):
+    values = run.weak[key]
+    return values / 1000.0 if key == "p" else values  # Pa -> kPa reads better
+
+
+def map_ranges(run, frames_mask):
+    ranges = {}
+    for key, *_ in MAP_ROWS:
+        values = map_value(run, key)[frames_mask]
+        if key == "failed_fraction":
+            ranges[key] = (0.0, 1.0)
+        elif key == "slab_speed":
+            ranges[key] = (0.0, max(shared_range(values)[1], 1e-3))
+        else:
+            ranges[key] = shared_range(values)
+    return ranges
+
+
+def failure_maps_3d(run, path):
+    """Fig. A1 style: top views (x along the slope, z across) at the map times."""
+    w = run.weak
+    ix, iz = cell_index(w["x"], run.dx), cell_index(w["z"], run.dx)
+    x0, z0 = ix.min(), iz.min()
+    shape = (iz.max() - z0 + 1, ix.max() - x0 + 1)
+    extent = ((x0) * run.dx, (ix.max() + 1) * run.dx, z0 * run.dx, (iz.max() + 1) * run.dx)
+    mask_all = np.isin(w["frame"].astype(int), run.map_frames)
+    ranges = map_ranges(run, mask_all)
+    n = len(run.map_frames)
+    width = extent[1] - extent[0]
+    height = extent[3] - extent[2]
+    panel_w = 3.6
+    panel_h = max(0.9, min(3.6, panel_w * height / max(width, 1e-9))) + 0.7
+    fig, axes = plt.subplots(3, n, figsize=(panel_w * n + 1.2, panel_h * 3), squeeze=False,
+                             constrained_layout=True)
+    for r, (key, _, cmap, unit, short) in enumerate(MAP_ROWS):
+        values = map_value(run, key)
+        image = None
+        for c, frame in enumerate(run.map_frames):
+            ax = axes[r][c]
+            sel = w["frame"].astype(int) == frame
+            grid = np.full(shape, np.nan)
+            grid[iz[sel] - z0, ix[sel] - x0] = values[sel]
+            cm = plt.get_cmap(cmap).copy()
+            cm.set_bad(NO_LAYER)
+            image = ax.imshow(grid, origin="lower", extent=extent, cmap=cm,
+                              vmin=ranges[key][0], vmax=ranges[key][1], interpolation="nearest",
+                              aspect="equal")
+            ax.set_title(f"{short}, t = {run.map_times[c]:.3f} s", fontsize=10)
+            ax.set_xlabel("x, down-slope (m)")
+            if c == 0:
+                ax.set_ylabel("z, across (m)")
+        fig.colorbar(image, ax=list(axes[r]), label=unit, shrink=0.9)
+    return save(fig, path)
+
+
+def xt_grid(run, key):
+    """A (frame, x cell) image of one quantity, 2D runs: every frame was binned."""
+    w = run.weak
+    frames = np.unique(w["frame"].astype(int))
+    ix = cell_index(w["x"], run.dx)
+    x0 = ix.min()
+    grid = np.full((frames.size, ix.max() - x0 + 1), np.nan)
+    row = np.searchsorted(frames, w["frame"].astype(int))
+    grid[row, ix - x0] = map_value(run, key)
+    times = np.array([w["time"][w["frame"].astype(int) == f][0] for f in frames])
+    x_extent = (x0 * run.dx, (ix.max() + 1) * run.dx)
+    return grid, times, x_extent
+
+
+def failure_maps_2d(run, path):
+    """x-time images: the weak layer along the slope (horizontal) as time goes on (upwards)."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8), constrained_layout=True)
+    ranges = map_ranges(run, np.ones(run.weak["frame"].size, dtype=bool))
+    tip_t, tip_x = run.column("time"), run.column("crack_tip_x")
+    for ax, (key, title, cmap, unit, _) in zip(axes, MAP_ROWS):
+        grid, times, (xa, xb) = xt_grid(run, key)
+        dt = times[1] - times[0] if times.size > 1 else 1.0
+        cm = plt.get_cmap(cmap).copy()
+        cm.set_bad(NO_LAYER)
+        image = ax.imshow(grid, origin="lower", aspect="auto", cmap=cm,
+                          extent=(xa, xb, times[0] - dt / 2, times[-1] + dt / 2),
+                          vmin=ranges[key][0], vmax=ranges[key][1], interpolation="nearest")
+        ax.plot(tip_x, tip_t, color="#1f77b4", lw=1.2, label="crack tip (metrics.csv)")
+        for t in run.map_times:
+            ax.axhline(t, color="#2ca02c", lw=0.8, ls="--")
+        ax.set_xlim(xa, xb)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("x, down-slope (m)")
+        ax.set_ylabel("time (s)")
+        fig.colorbar(image, ax=ax, label=unit)
+    axes[0].legend(loc="upper left", fontsize=8)
+    return save(fig, path)
+
+
+def failure_profiles_2d(run, path):
+    """The same quantities along x at the map times, as lines."""
+    w = run.weak
+    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True, constrained_layout=True)
+    colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(run.map_frames), 1)))
+    for ax, (key, title, _, unit, _) in zip(axes, MAP_ROWS):
+        values = map_value(run, key)
+        for colour, frame, t in zip(colours, run.map_frames, run.map_times):
+            sel = w["frame"].astype(int) == frame
+            order = np.argsort(w["x"][sel])
+            ax.plot(w["x"][sel][order], values[sel][order], color=colour, lw=1.3,
+                    label=f"t = {t:.3f} s")
+        ax.set_ylabel(unit)
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylim(-0.05, 1.05)
+    axes[0].legend(fontsize=8, ncol=min(len(run.map_frames), 4))
+    axes[-1].set_xlabel("x, down-slope (m)")
+    return save(fig, path)
+
+
+# Crack, flow, McClung & Gauer -----------------------------------------------------------------
+
+def crack_chart(run, path):
+    """Fig. 3 bottom: crack tip against time, crack speed against position along the slope."""
+    t, tip, speed = run.column("time"), run.column("crack_tip_x"), run.column("crack_speed")
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    a.plot(t, tip, "o-", ms=3, color="#1f77b4", label="leading tip")
+    for name, style in (("crack_tip_min_x", ":"), ("crack_tip_max_x", "--")):
+        if name in run.metrics:
+            a.plot(t, run.metrics[name], style, color="0.4", lw=1,
+                   label=name.replace("crack_tip_", "extent ").replace("_x", ""))
+    a.set_xlabel("time (s)")
+    a.set_ylabel("crack tip x (m)")
+    a.set_title("crack tip position")
+    a.legend(fontsize=8)
+    a.grid(alpha=0.3)
+    moving = np.isfinite(speed) & np.isfinite(tip)
+    b.plot(tip[moving], speed[moving], "o-", ms=3, color="#d62728", label="between frames")
+    mean = run.summary.get("mean_crack_speed")
+    if mean:
+        b.axhline(mean, color="k", ls="--", lw=1, label=f"steady mean {mean:.1f} m/s")
+    b.set_xlabel("crack tip x (m)")
+    b.set_ylabel("crack speed (m/s)")
+    b.set_title("crack speed along the slope")
+    b.legend(fontsize=8)
+    b.grid(alpha=0.3)
+    return save(fig, path)
+
+
+def flow_chart(run, path):
+    t = run.column("time")
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    a.plot(t, run.column("max_speed"), color="#d62728")
+    a.set_xlabel("time (s)")
+    a.set_ylabel("maximum particle speed (m/s)")
+    a.set_title("maximum flow speed")
+    a.grid(alpha=0.3)
+    b.plot(t, run.column("kinetic_energy") / 1000.0, color="#1f77b4")
+    b.set_xlabel("time (s)")
+    b.set_ylabel("kinetic energy (kJ/m)" if run.dimension == 2 else "kinetic energy (kJ)")
+    b.set_title("kinetic energy")
+    b.grid(alpha=0.3)
+    return save(fig, path)
+
+
+def mcclung_gauer_chart(run, path):
+    """Fig. 7: u_m against sqrt(L) with the fit u_m = 1.5 sqrt(L); u_m against alpha."""
+    u_m = run.summary.get("max_speed")
+    alpha = run.summary.get("alpha_angle_deg")
+    length = run.path_length()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.4), constrained_layout=True)
+    root = math.sqrt(length) if length else 0.0
+    s = np.linspace(0.0, max(10.0, 1.3 * root), 100)
+    a.plot(s, MG_COEFFICIENT * s, "k--", label="McClung & Gauer (2018): $u_m = 1.5\\,L^{1/2}$")
+    if length and u_m is not None:
+        a.plot(root, u_m, "o", ms=9, color="#d62728", label=f"this run (L = {length:.1f} m)")
+    a.set_xlabel("$L^{1/2}$ (m$^{1/2}$)")
+    a.set_ylabel("maximum flow speed $u_m$ (m/s)")
+    a.set_title("maximum speed against path length")
+    a.set_xlim(0, s[-1])
+    a.set_ylim(0, max(MG_COEFFICIENT * s[-1], 1.2 * (u_m or 0)))
+    a.legend(fontsize=8, loc="upper left")
+    a.grid(alpha=0.3)
+    b.axvspan(*ALPHA_BAND, color="#2ca02c", alpha=0.2, label="α 20–30° (Gaume et al. 2019)")
+    if alpha is not None and u_m is not None:
+        b.plot(alpha, u_m, "o", ms=9, color="#d62728", label=f"this run (α = {alpha:.1f}°)")
+    b.set_xlim(0, 60 if alpha is None else max(60, alpha + 5))
+    b.set_ylim(0, max(10.0, 1.2 * (u_m or 0)))
+    b.set_xlabel("α-angle (°)")
+    b.set_ylabel("maximum flow speed $u_m$ (m/s)")
+    b.set_title("maximum speed against α-angle")
+    b.legend(fontsize=8, loc="upper right")
+    b.grid(alpha=0.3)
+    return save(fig, path)
+
+
+# HTML -------------------------------------------------------------------------------------------
+
+UNITS = {
+    "end_time": "s", "wall_seconds": "s", "particle_steps_per_second": "1/s",
+    "peak_rss_bytes": "B", "bytes_per_particle": "B", "mass_initial": "kg",
+    "mass_final": "kg", "max_speed": "m/s", "max_crack_speed": "m/s",
+    "mean_crack_speed": "m/s", "crack_propagation_distance": "m", "runout_x": "m",
+    "alpha_angle_deg": "°",
+}
+
+
+def format_value(value):
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return "—" if value is None else str(value)
+
+
+def summary_table(run):
+    rows = []
+    for key, value in run.summary.items():
+        unit = UNITS.get(key, "")
+        if key.startswith("mass_") and run.dimension == 2:
+            unit = "kg/m"
+        rows.append((key, format_value(value), unit))
+    length = run.path_length()
+    if length is not None:
+        rows.append(("path length L (report)", f"{length:.6g}", "m"))
+        rows.append(("1.5 L^1/2 (McClung & Gauer)", f"{MG_COEFFICIENT * math.sqrt(length):.6g}",
+                     "m/s"))
+    body = "\n".join(f"<tr><td>{html.escape(k)}</td><td class=num>{html.escape(v)}</td>"
+                     f"<td>{html.escape(u)}</td></tr>" for k, v, u in rows)
+    return f"<table>\n<tr><th>quantity</th><th>value</th><th>unit</th></tr>\n{body}\n</table>"
+
+
+def figure(path, caption):
+    data = base64.b64encode(pathlib.Path(path).read_bytes()).decode("ascii")
+    return (f'<figure><img alt="{html.escape(pathlib.Path(path).name)}" '
+            f'src="data:image/png;base64,{data}">\n'
+            f"<figcaption>{caption}</figcaption></figure>")
+
+
+STYLE = """
+body { font-family: sans-serif; max-width: 1400px; margin: 1em auto; padding: 0 1em; color: #222; }
+table { border-collapse: collapse; font-size: 0.9em; }
+td, th { border: 1px solid #ccc; padding: 2px 8px; text-align: left; }
+td.num { text-align: right; font-family: monospace; }
+figure { margin: 1em 0 2em 0; }
+img { max-width: 100%; border: 1px solid #eee; }
+figcaption { font-size: 0.9em; color: #444; max-width: 60em; }
+"""
+
+
+def render_section(run):
+    """The renderer's contact sheet (`firn render`), when the run has been rendered."""
+    render_dir = run.out_dir / "render"
+    contact = render_dir / "contact.png"
+    if contact.is_file():
+        return [figure(contact, "Contact sheet of the rendered frames (<code>firn render</code>): "
+                                "the run from start to end.")]
+    frames = sorted(render_dir.glob("frame.*.png"))
+    if not frames:
+        return []
+    picks = sorted({frames[0], frames[len(frames) // 2], frames[-1]})
+    return [figure(f, f"Rendered frame <code>{html.escape(f.name)}</code> "
+                      "(<code>firn render</code>).") for f in picks]
+
+
+def map_section(run, out, written):
+    if not run.has_weak_layer:
+        return ["<p>This scene has no weak layer (no material with model "
+                "<code>weak_layer</code>), so there are no failure maps.</p>"]
+    if not run.has_map_data:
+        return ["<p>The run wrote no particle cache (<code>output.particles = false</code>), so "
+                "there are no failure maps.</p>"]
+    how = ("chosen with <code>--times</code>" if run.info["map_times"] == "requested" else
+           "4 frames evenly spaced while the crack runs (over the whole run if it does not)")
+    times = ", ".join(f"{t:.3f}" for t in run.map_times)
+    common = (f"Weak-layer particles binned on cells of the grid spacing (dx = {run.dx:g} m): "
+              "the share of them that have yielded at least once (white: failed, black: "
+              "elastic), their mean pressure p, and the mean speed of the slab particles in the "
+              f"same column. Pale blue: no weak layer there (saw cut, or outside the layer). "
+              f"Map times ({how}): {times} s. After Gaume et al. (2019), Fig. A1.")
+    parts = []
+    if run.dimension == 3:
+        written.append(failure_maps_3d(run, out / "failure_maps.png"))
+        parts.append(figure(written[-1], "Failure maps, top view of the weak layer (x down-slope, "
+                                         "z across). " + common))
+    else:
+        written.append(failure_maps_2d(run, out / "failure_maps.png"))
+        parts.append(figure(written[-1], "Failure maps of a 2D run as x–time images: the weak "
+                                         "layer along the slope (horizontal) as time goes on "
+                                         "(upwards); the blue line is the crack tip, dashed green "
+                                         "lines the map times. " + common))
+        written.append(failure_profiles_2d(run, out / "failure_profiles.png"))
+        parts.append(figure(written[-1], "The same quantities along the slope at the map times."))
+    return parts
+
+
+def write_report(run, quiet):
+    out = run.report_dir
+    written = []
+    sections = [f"<h1>Firn report: {html.escape(str(run.name))}</h1>",
+                f"<p>Run folder <code>{html.escape(str(run.out_dir))}</code>, "
+                f"{run.dimension}D, status <b>{html.escape(str(run.summary.get('status')))}</b>."
+                "</p>", "<h2>Summary</h2>", summary_table(run)]
+
+    sections.append("<h2>Weak layer failure maps</h2>")
+    sections += map_section(run, out, written)
+
+    sections.append("<h2>Crack propagation</h2>")
+    if run.has_crack:
+        written.append(crack_chart(run, out / "crack.png"))
+        sections.append(figure(written[-1], (
+            "Left: the crack tip (leading end of the weak-layer region with anticrack strain "
+            "η > 0, metrics.csv <code>crack_tip_x</code>) and the extent's two ends against "
+            "time. Right: the crack speed (the tip's advance between frames, "
+            "<code>crack_speed</code>) against the tip position along the slope, as in Gaume "
+            "et al. (2019), Fig. 3 bottom; dashed: the steady mean speed of summary.json.")))
+    else:
+        sections.append("<p>No crack: no weak-layer particle reached η &gt; 0.</p>")
+
+    sections.append("<h2>Flow</h2>")
+    written.append(flow_chart(run, out / "flow.png"))
+    unit = " per metre of width (2D)" if run.dimension == 2 else ""
+    sections.append(figure(written[-1], (
+        "Maximum particle speed (left) and total kinetic energy" + unit + " (right) against "
+        "time, from metrics.csv.")))
+
+    sections.append("<h2>McClung &amp; Gauer diagram and α-angle</h2>")
+    written.append(mcclung_gauer_chart(run, out / "mcclung_gauer.png"))
+    sections.append(figure(written[-1], (
+        "As in Gaume et al. (2019), Fig. 7. Left: maximum flow speed u<sub>m</sub> (summary.json "
+        "<code>max_speed</code>) against the square root of the path length L, with the "
+        "relation u<sub>m</sub> ≈ 1.5 L<sup>1/2</sup> of McClung &amp; Gauer (2018) that the "
+        "paper quotes; their field data points are not bundled, only this fit. Here L is the "
+        "straight distance from the highest point of the release (first frame) to the farthest "
+        "point of the deposit along x (last frame), the two points that define the α-angle. "
+        "Right: u<sub>m</sub> against the α-angle (summary.json <code>alpha_angle_deg</code>), "
+        "with the 20–30° band that the paper finds for all its simulations.")))
+
+    rendered = render_section(run)
+    if rendered:
+        sections.append("<h2>Rendered frames</h2>")
+        sections += rendered
+
+    page = ("<!DOCTYPE html>\n<html lang=en><head><meta charset=utf-8>"
+            f"<title>Firn report: {html.escape(str(run.name))}</title>"
+            f"<style>{STYLE}</style></head><body>\n" + "\n".join(sections) +
+            "\n</body></html>\n")
+    target = out / "report.html"
+    tmp = out / ".report.html.tmp"
+    tmp.write_text(page, encoding="utf-8")
+    tmp.replace(target)  # appears only complete
+    if not quiet:
+        for path in written + [target]:
+            print(f"report.py: wrote {path}", file=sys.stderr)
+    return target
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out_dir", help="a run folder on which `firn report` has written "
+                                        "report/data")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    args = parser.parse_args()
+    try:
+        write_report(Run(args.out_dir), args.quiet)
+    except ReportError as e:
+        print(f"report.py: error: {e}", file=sys.stderr)
+        return 3
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

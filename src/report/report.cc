@@ -1,0 +1,279 @@
+// `firn report`: reduces a run folder's particle caches to small tables, then hands them to
+// render/report.py, which draws the charts and writes report.html.
+#include <firn/report.h>
+
+#include <firn/io.h>
+#include <firn/scene.h>
+
+#include "report/map_frames.h"
+#include "report/metrics_table.h"
+#include "report/particle_reader.h"
+#include "report/weak_layer_map.h"
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+
+extern char** environ;
+
+namespace firn {
+namespace {
+
+namespace fs = std::filesystem;
+using report::CachedFrame;
+
+constexpr const char* kPython = "/usr/bin/python3";
+
+/// The run's scene.toml without its [[terrain]] tables. The report needs the dimension, the
+/// grid and the materials only, and a heightfield's DEM file need not be where scene.toml says:
+/// a run folder copied to another machine, or one written before scene.toml held absolute
+/// paths, still gets its report. scene.toml is written by toml++, which puts arrays of tables
+/// last and [[terrain]] last of those, so the lines before it (and what error messages say about
+/// them) do not move.
+SceneDesc loadRunScene(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) {
+        throw IoError("cannot read " + path +
+                      ": no such file (is this a folder written by "
+                      "`firn run`?)");
+    }
+    std::ostringstream text;
+    text << in.rdbuf();
+    toml::table root;
+    try {
+        root = toml::parse(text.str(), std::string_view(path));
+    } catch (const toml::parse_error& e) {
+        const auto& at = e.source().begin;
+        throw SceneError(SourceLoc{path, int(at.line), int(at.column)}, "syntax",
+                         std::string(e.description()));
+    }
+    root.erase("terrain");
+    std::ostringstream withoutTerrain;
+    withoutTerrain << root;
+    return parseScene(withoutTerrain.str(), path);
+}
+
+/// Float data carry about 7 significant digits; more would only make the tables longer.
+std::string csvNumber(double value) {
+    if (!std::isfinite(value)) return "";
+    char text[32];
+    std::snprintf(text, sizeof text, "%.7g", value);
+    return text;
+}
+
+struct RunFolder {
+    std::string outDir, reportDir, dataDir;
+    SceneDesc scene;
+    std::vector<bool> isWeakLayer; ///< by material index
+    std::string weakLayerNames;    ///< comma-separated, empty when there is none
+    report::MetricsTable metrics;
+    std::vector<int> frames;      ///< particle cache frames that have a metrics row
+    std::vector<double> times;    ///< s, of those frames
+    std::vector<double> crackTip; ///< m, metrics.csv crack_tip_x of those frames
+
+    std::string framePath(int frame) const {
+        return outDir + "/frames/" + frameFileName("particles", frame);
+    }
+};
+
+RunFolder openRunFolder(const std::string& outDir) {
+    std::error_code error;
+    if (!fs::is_directory(outDir, error)) {
+        throw IoError(outDir + ": no such folder (give the output folder of `firn run`)");
+    }
+    RunFolder run;
+    run.outDir = outDir;
+    run.reportDir = outDir + "/report";
+    run.dataDir = run.reportDir + "/data";
+    run.scene = loadRunScene(outDir + "/scene.toml");
+    for (const MaterialDesc& m : run.scene.materials) {
+        const bool weak = m.model == MaterialModel::WeakLayer;
+        run.isWeakLayer.push_back(weak);
+        if (weak) run.weakLayerNames += (run.weakLayerNames.empty() ? "" : ",") + m.name;
+    }
+    run.metrics = report::readMetrics(outDir + "/metrics.csv");
+    const auto& frameColumn = run.metrics.column("frame");
+    const auto& timeColumn = run.metrics.column("time");
+    const auto& tipColumn = run.metrics.column("crack_tip_x");
+    std::map<int, std::size_t> rowOfFrame;
+    for (std::size_t r = 0; r < run.metrics.rows; ++r) rowOfFrame[int(frameColumn[r])] = r;
+    // A run stopped by a signal may hold a last frame file whose metrics row was never written.
+    for (int frame : report::listParticleFrames(outDir + "/frames")) {
+        const auto row = rowOfFrame.find(frame);
+        if (row == rowOfFrame.end()) continue;
+        run.frames.push_back(frame);
+        run.times.push_back(timeColumn[row->second]);
+        run.crackTip.push_back(tipColumn[row->second]);
+    }
+    return run;
+}
+
+class WeakLayerTable {
+public:
+    WeakLayerTable()
+        : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed\n") {}
+
+    void add(const CachedFrame& frame, const std::vector<report::WeakLayerCell>& cells) {
+        const std::string prefix =
+            std::to_string(frame.info.frame) + "," + csvNumber(frame.info.time) + ",";
+        for (const auto& c : cells) {
+            mText += prefix + csvNumber(c.x) + "," + csvNumber(c.z) + "," +
+                     csvNumber(c.failedFraction) + "," + csvNumber(c.eta) + "," + csvNumber(c.p) +
+                     "," + csvNumber(c.slabSpeed) + "\n";
+        }
+    }
+    const std::string& text() const { return mText; }
+
+private:
+    std::string mText;
+};
+
+/// The release's highest point (first frame) and the deposit's farthest point along x (last
+/// frame): the ends of the path that summary.json's alpha angle measures.
+struct PathEnds {
+    double topX = std::numeric_limits<double>::quiet_NaN(), topY = topX;
+    double farX = topX, farY = topX;
+};
+
+void findTop(const ParticleFrame& f, PathEnds& ends) {
+    for (std::size_t i = 0; i < f.P.size(); ++i) {
+        if (!(f.P[i][1] <= ends.topY)) ends.topX = f.P[i][0], ends.topY = f.P[i][1];
+    }
+}
+
+void findFar(const ParticleFrame& f, PathEnds& ends) {
+    for (std::size_t i = 0; i < f.P.size(); ++i) {
+        if (!(f.P[i][0] <= ends.farX)) ends.farX = f.P[i][0], ends.farY = f.P[i][1];
+    }
+}
+
+bool contains(const std::vector<int>& frames, int frame) {
+    return std::find(frames.begin(), frames.end(), frame) != frames.end();
+}
+
+void progress(const ReportOptions& options, const std::string& line) {
+    if (!options.quiet) std::fprintf(stderr, "firn report: %s\n", line.c_str());
+}
+
+/// Reads the frames the report needs, in order: in 2D every frame (the maps are x-time images),
+/// in 3D the mapped ones; always the first and the last, for the path ends.
+void reduceFrames(const RunFolder& run, const std::vector<int>& mapFrames,
+                  const ReportOptions& options, WeakLayerTable& table, PathEnds& ends) {
+    const bool everyFrame = run.scene.simulation.dimension == 2;
+    const bool hasWeakLayer = !run.weakLayerNames.empty();
+    std::vector<int> toRead;
+    for (int frame : run.frames) {
+        if (everyFrame || contains(mapFrames, frame) || frame == run.frames.front() ||
+            frame == run.frames.back())
+            toRead.push_back(frame);
+    }
+    progress(options, "reading " + std::to_string(toRead.size()) + " particle frames");
+    for (int frame : toRead) {
+        const CachedFrame cached = report::readParticleFrame(run.framePath(frame));
+        if (frame == run.frames.front()) findTop(cached.particles, ends);
+        if (frame == run.frames.back()) findFar(cached.particles, ends);
+        if (hasWeakLayer && (everyFrame || contains(mapFrames, frame))) {
+            table.add(cached,
+                      report::binWeakLayer(cached.particles, run.isWeakLayer, run.scene.grid.dx,
+                                           run.scene.simulation.dimension));
+        }
+    }
+}
+
+std::string mapFramesCsv(const RunFolder& run, const std::vector<int>& mapFrames) {
+    std::string text = "frame,time\n";
+    for (int frame : mapFrames) {
+        const auto at = std::find(run.frames.begin(), run.frames.end(), frame) - run.frames.begin();
+        text += std::to_string(frame) + "," + formatNumber(run.times[at]) + "\n";
+    }
+    return text;
+}
+
+std::string reportJson(const RunFolder& run, const ReportOptions& options, const PathEnds& ends) {
+    JsonObject json;
+    json.set("dimension", run.scene.simulation.dimension);
+    json.set("dx", run.scene.grid.dx);
+    json.set("weak_layer_materials", run.weakLayerNames);
+    json.set("particle_frames", int(run.frames.size()));
+    json.set("map_times", options.times.empty() ? "automatic" : "requested");
+    json.set("release_top_x", ends.topX);
+    json.set("release_top_y", ends.topY);
+    json.set("deposit_far_x", ends.farX);
+    json.set("deposit_far_y", ends.farY);
+    return json.str();
+}
+
+std::string scriptPath() {
+    const char* fromEnv = std::getenv("FIRN_RENDER_SCRIPTS");
+    const std::string folder = fromEnv && *fromEnv ? fromEnv : FIRN_RENDER_SCRIPTS;
+    const std::string path = folder + "/report.py";
+    std::error_code error;
+    if (!fs::is_regular_file(path, error)) {
+        throw IoError("report script not found: " + path +
+                      " (set FIRN_RENDER_SCRIPTS to the folder that holds report.py)");
+    }
+    return path;
+}
+
+/// Runs the script without a shell, so that no folder name is ever parsed as shell syntax.
+void runScript(const std::string& script, const RunFolder& run, const ReportOptions& options) {
+    std::vector<std::string> args = {kPython, script, run.outDir};
+    if (options.quiet) args.push_back("--quiet");
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = 0;
+    const int spawned = posix_spawn(&pid, kPython, nullptr, nullptr, argv.data(), environ);
+    if (spawned != 0) {
+        throw IoError(std::string("cannot start ") + kPython + ": " + std::strerror(spawned) +
+                      " (the report needs Debian's python3 with python3-matplotlib)");
+    }
+    int status = 0;
+    while (waitpid(pid, &status, 0) < 0) {
+        if (errno != EINTR)
+            throw IoError(std::string("waiting for ") + script + ": " + std::strerror(errno));
+    }
+    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+    const std::string how = WIFEXITED(status) ? "exit status " + std::to_string(WEXITSTATUS(status))
+                                              : "signal " + std::to_string(WTERMSIG(status));
+    throw IoError(script + " failed with " + how + " (its messages are above)");
+}
+
+} // namespace
+
+std::string writeReport(const ReportOptions& options) {
+    const RunFolder run = openRunFolder(options.outDir);
+    const std::string script = scriptPath();
+    if (!options.times.empty() && run.frames.empty()) {
+        throw SceneError(SourceLoc{"--times", 0, 0}, "",
+                         "the run wrote no particle cache (output.particles = false), so there "
+                         "are no frames to map");
+    }
+    const std::vector<int> mapFrames = report::chooseMapFrames(run.frames, run.times, run.crackTip,
+                                                               options.times, run.scene.grid.dx);
+    WeakLayerTable table;
+    PathEnds ends;
+    if (!run.frames.empty()) reduceFrames(run, mapFrames, options, table, ends);
+
+    makeDirectories(run.dataDir);
+    writeFileAtomic(run.dataDir + "/weak_layer.csv", table.text());
+    writeFileAtomic(run.dataDir + "/map_frames.csv", mapFramesCsv(run, mapFrames));
+    writeFileAtomic(run.dataDir + "/report.json", reportJson(run, options, ends));
+    progress(options, "drawing charts with " + script);
+    runScript(script, run, options);
+    return run.reportDir + "/report.html";
+}
+
+} // namespace firn

@@ -1,0 +1,60 @@
+#include "report/weak_layer_map.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <utility>
+
+namespace firn::report {
+namespace {
+
+struct Sums {
+    int weak = 0, failed = 0, slab = 0;
+    double eta = 0, p = 0, slabSpeed = 0;
+};
+
+bool isWeak(const std::vector<bool>& isWeakLayer, std::int32_t material) {
+    return material >= 0 && std::size_t(material) < isWeakLayer.size() && isWeakLayer[material];
+}
+
+} // namespace
+
+std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
+                                        const std::vector<bool>& isWeakLayer, double dx,
+                                        int dimension) {
+    // Keyed (z, x) so that iteration gives raster order.
+    std::map<std::pair<long, long>, Sums> cells;
+    for (std::size_t i = 0; i < frame.P.size(); ++i) {
+        const auto& P = frame.P[i];
+        const long ix = long(std::floor(P[0] / dx));
+        const long iz = dimension == 3 ? long(std::floor(P[2] / dx)) : 0;
+        Sums& s = cells[{iz, ix}];
+        if (isWeak(isWeakLayer, frame.material[i])) {
+            ++s.weak;
+            s.failed += frame.failed[i] != 0;
+            s.eta += frame.eta[i];
+            s.p += frame.p[i];
+        } else {
+            const auto& v = frame.v[i];
+            ++s.slab;
+            s.slabSpeed +=
+                std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+        }
+    }
+    std::vector<WeakLayerCell> out;
+    for (const auto& [key, s] : cells) {
+        if (s.weak == 0) continue;
+        WeakLayerCell c;
+        c.x = (key.second + 0.5) * dx;
+        c.z = dimension == 3 ? (key.first + 0.5) * dx : 0.0;
+        c.particles = s.weak;
+        c.failedFraction = double(s.failed) / s.weak;
+        c.eta = s.eta / s.weak;
+        c.p = s.p / s.weak;
+        c.slabSpeed = s.slab > 0 ? s.slabSpeed / s.slab : std::numeric_limits<double>::quiet_NaN();
+        out.push_back(c);
+    }
+    return out;
+}
+
+} // namespace firn::report

@@ -1,0 +1,328 @@
+#!/usr/bin/python3
+"""`firn report` end to end: a short 2D Propagation Saw Test whose crack runs the column, and a
+granular slide without a weak layer; the report's HTML, PNGs and tables are checked on what they
+show, not only on their existence.
+
+usage: test_report.py --firn PATH/TO/firn --work SCRATCH_DIR   (exit status 0: all passed)
+"""
+import argparse
+import base64
+import csv
+import io
+import json
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.image as mpimg  # noqa: E402
+
+# scenes/pst.toml shortened to a 3 m column with a 0.8 m cut (above critical: the crack runs
+# the column in about 0.06 s at ~30 m/s). 16 000 particles, 0.15 s simulated: ~7 s on 2 cores.
+PST = """
+[simulation]
+name = "report-pst"
+dimension = 2
+end_time = 0.15
+frame_rate = 200
+gravity = [0.0, -9.81]
+gravity_ramp = 0.05
+
+[grid]
+dx = 0.02
+particles_per_cell = 4
+
+[[material]]
+name = "slab"
+model = "snow"
+density = 250.0
+youngs_modulus = 5.0e6
+poisson_ratio = 0.2
+critical_state_slope = 1.0
+cohesion_ratio = 0.5
+initial_p0 = 6.0e4
+hardening = 0.5
+
+[[material]]
+name = "weak"
+model = "weak_layer"
+density = 100.0
+youngs_modulus = 4.8e5
+poisson_ratio = 0.2
+critical_state_slope = 1.0
+cohesion_ratio = 0.1
+initial_p0 = 3450.0
+hardening = 0.015
+softening = 100.0
+dynamic_critical_state_slope = 1.2
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+friction = 0.5
+
+[[body]]
+name = "weak"
+material = "weak"
+shape = "layer"
+thickness = 0.06
+x_range = [0.0, 3.0]
+
+[[body]]
+name = "slab"
+material = "slab"
+shape = "layer"
+on_top_of = "weak"
+thickness = 0.5
+x_range = [0.0, 3.0]
+
+[[cut]]
+layer = "weak"
+from_x = 0.0
+length = 0.8
+
+[output]
+volumes = []
+"""
+
+# The same column in 3D, 1.5 m long and 0.25 m wide on a coarse grid, for the x-z raster: ~3 s.
+PST_3D = (PST.replace('name = "report-pst"', 'name = "report-pst3d"')
+          .replace("dimension = 2", "dimension = 3")
+          .replace("end_time = 0.15", "end_time = 0.06")
+          .replace("frame_rate = 200", "frame_rate = 100")
+          .replace("gravity = [0.0, -9.81]", "gravity = [0.0, -9.81, 0.0]")
+          .replace("dx = 0.02", "dx = 0.05")
+          .replace("point = [0.0, 0.0]", "point = [0.0, 0.0, 0.0]")
+          .replace("normal = [0.0, 1.0]", "normal = [0.0, 1.0, 0.0]")
+          .replace("x_range = [0.0, 3.0]", "x_range = [0.0, 1.5]\nz_range = [0.0, 0.25]"))
+
+# A granular slide without any weak layer (scenes/default.toml, coarser and shorter): ~1 s.
+SLIDE = """
+[simulation]
+name = "report-slide"
+dimension = 2
+end_time = 1.0
+frame_rate = 12
+
+[grid]
+dx = 0.1
+particles_per_cell = 4
+
+[[material]]
+name = "snow"
+model = "granular"
+friction_angle = 35.0
+
+[[terrain]]
+shape = "profile"
+points = [[0.0, 13.0], [5.0, 10.0], [12.0, 4.0], [18.0, 1.0], [25.0, 0.0], [40.0, 0.0]]
+friction = 0.3
+
+[[body]]
+material = "snow"
+shape = "layer"
+thickness = 0.5
+x_range = [3.0, 12.0]
+
+[output]
+volumes = []
+"""
+
+FAILURES = []
+
+
+def check(condition, message):
+    print(("ok   " if condition else "FAIL ") + message)
+    if not condition:
+        FAILURES.append(message)
+    return condition
+
+
+def firn(binary, *args, expect=0):
+    result = subprocess.run([binary, *args], capture_output=True, text=True)
+    if result.returncode != expect:
+        sys.exit(f"firn {' '.join(args)}: exit {result.returncode}, expected {expect}\n"
+                 f"{result.stdout}{result.stderr}")
+    return result
+
+
+def run_scene(binary, work, name, text):
+    scene = work / f"{name}.toml"
+    scene.write_text(text)
+    out = work / name
+    shutil.rmtree(out, ignore_errors=True)
+    firn(binary, "run", str(scene), "--out", str(out), "--threads", "2", "--quiet")
+    return out
+
+
+def read_table(path):
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    return {k: np.array([float(r[k]) if r[k] else np.nan for r in rows]) for k in rows[0]}
+
+
+def check_html(report_dir, expected_images):
+    """Self-contained: every image a PNG data URI, nothing fetched from elsewhere."""
+    page = (report_dir / "report.html").read_text(encoding="utf-8")
+    images = re.findall(r'<img [^>]*src="([^"]*)"', page)
+    check(len(images) == expected_images,
+          f"report.html embeds {len(images)} images (expected {expected_images})")
+    uris = [s for s in images if s.startswith("data:image/png;base64,")]
+    check(len(uris) == len(images), "every <img> is a data:image/png;base64 URI")
+    for uri in uris:
+        png = base64.b64decode(uri.split(",", 1)[1])
+        if not check(png[:8] == b"\x89PNG\r\n\x1a\n", "an embedded image is a PNG"):
+            continue
+        check(mpimg.imread(io.BytesIO(png)).shape[0] > 100, "an embedded PNG decodes")
+    external = re.findall(r'(?:src|href)="(?!data:)[^"]*"', page)
+    check(not external, f"no external src/href ({external[:3]})")
+    check("<table>" in page and "max_speed" in page, "the summary table is there")
+    return page
+
+
+def check_png(path):
+    """Decodes, and is not blank: pixel variance, non-background pixels, and the coloured
+    pixels of the data (every chart draws its data in colour, axes and text in grey)."""
+    image = mpimg.imread(path)[..., :3]
+    ink = np.mean(np.any(image < 0.9, axis=2))
+    coloured = np.sum(image.max(axis=2) - image.min(axis=2) > 0.3)
+    check(image.std() > 0.05 and ink > 0.02 and coloured > 500,
+          f"{path.name} is not blank (std {image.std():.3f}, non-white {ink:.1%}, "
+          f"{coloured} coloured pixels)")
+    return image
+
+
+def panel(image, left, right, bottom=0.15, top=0.85):
+    """The part of an image between fractions of its width and height (from the top)."""
+    h, w = image.shape[:2]
+    return image[int(bottom * h):int(top * h), int(left * w):int(right * w)]
+
+
+def check_pst(binary, work):
+    out = run_scene(binary, work, "pst", PST)
+    metrics = read_table(out / "metrics.csv")
+    tip = metrics["crack_tip_x"]
+    check(np.nanmax(tip) > 2.5, f"the crack runs the column (tip reaches {np.nanmax(tip):.2f} m)")
+
+    # Automatic map times: 4 frames while the crack runs.
+    path = firn(binary, "report", str(out), "--quiet").stdout.strip()
+    report_dir = out / "report"
+    check(pathlib.Path(path) == report_dir / "report.html", f"prints the report's path ({path})")
+    maps = read_table(report_dir / "data" / "map_frames.csv")
+    running = metrics["time"][np.isfinite(tip)]
+    check(len(maps["time"]) == 4 and maps["time"].min() >= running.min() and
+          maps["time"].max() <= running.max(),
+          f"automatic map times {list(maps['time'])} lie while the crack runs")
+
+    weak = read_table(report_dir / "data" / "weak_layer.csv")
+    frac = weak["failed_fraction"]
+    check(bool(np.all((frac >= 0) & (frac <= 1))), "failed fractions lie in [0, 1]")
+    check(bool(np.all((weak["x"] > 0.8 - 0.02) & (weak["x"] < 3.0 + 0.02))),
+          "weak-layer cells lie on the layer, past the saw cut (0.8 to 3 m)")
+    check(bool(np.all(weak["z"] == 0)), "2D cells have z = 0")
+    check(bool(np.all(np.isfinite(weak["p"]))) and np.nanmax(weak["p"]) > 100,
+          "weak-layer pressure is finite and loaded by the slab")
+    speed = weak["slab_speed"]
+    check(bool(np.all(speed[np.isfinite(speed)] >= 0)) and np.nanmax(speed) > 0.05,
+          "slab speeds are non-negative and the slab moves")
+
+    # The frame at which the tip is nearest the middle of its travel: the weak layer there is
+    # failed behind the tip and elastic ahead of it.
+    middle = 0.5 * (np.nanmin(tip) + np.nanmax(tip))
+    halfway = metrics["time"][np.nanargmin(np.abs(tip - middle))]
+    firn(binary, "report", str(out), "--times", f"{halfway:.4f},{metrics['time'][-1]:.4f}",
+         "--quiet")
+    maps = read_table(report_dir / "data" / "map_frames.csv")
+    check(list(maps["time"]) == sorted(maps["time"]) and len(maps["time"]) == 2,
+          f"--times gives those two maps ({list(maps['time'])})")
+    weak = read_table(report_dir / "data" / "weak_layer.csv")
+    at = np.isclose(weak["time"], maps["time"][0])
+    failed, elastic = np.sum(weak["failed_fraction"][at] > 0.5), np.sum(
+        weak["failed_fraction"][at] == 0)
+    check(failed > 5 and elastic > 5,
+          f"halfway the map has failed ({failed}) and elastic ({elastic}) cells")
+    tip_then = tip[np.isclose(metrics["time"], maps["time"][0])][0]
+    up, down = at & (weak["x"] < tip_then - 0.1), at & (weak["x"] > tip_then + 0.3)
+    check(np.mean(weak["failed_fraction"][up]) > 0.5 > np.mean(weak["failed_fraction"][down]),
+          "failed behind the crack tip, elastic well ahead of it")
+
+    check_html(report_dir, expected_images=5)
+    for name in ("failure_maps", "failure_profiles", "crack", "flow", "mcclung_gauer"):
+        check_png(report_dir / f"{name}.png")
+    # The x-time image of the failed share (left panel of three): black elastic below the
+    # crack's path, white/grey failed above it.
+    left = panel(check_png(report_dir / "failure_maps.png"), 0.06, 0.24).mean(axis=2)
+    check(np.mean(left < 0.1) > 0.1 and np.mean((left > 0.6) & (left < 0.999)) > 0.05,
+          f"the failure map shows elastic (black {np.mean(left < 0.1):.0%}) and failed "
+          f"(light {np.mean((left > 0.6) & (left < 0.999)):.0%}) cells")
+
+    # Errors a user can make.
+    bad = firn(binary, "report", str(out), "--times", "9", expect=1)
+    check("--times" in bad.stderr and "outside the run" in bad.stderr,
+          f"a time past the run is refused: {bad.stderr.strip()}")
+    missing = firn(binary, "report", str(work / "no-such-run"), expect=3)
+    check("no-such-run" in missing.stderr, f"a missing folder is named: {missing.stderr.strip()}")
+
+
+def check_pst_3d(binary, work):
+    out = run_scene(binary, work, "pst3d", PST_3D)
+    firn(binary, "report", str(out), "--quiet")
+    report_dir = out / "report"
+    weak = read_table(report_dir / "data" / "weak_layer.csv")
+    maps = read_table(report_dir / "data" / "map_frames.csv")
+    frames = np.unique(weak["frame"])
+    check(np.array_equal(frames, maps["frame"]), f"3D: only the map frames are binned ({frames})")
+    z_cells = np.unique(weak["z"])
+    check(np.allclose(z_cells, [0.025, 0.075, 0.125, 0.175, 0.225]),
+          f"3D: cells across the 0.25 m width at z = {z_cells}")
+    first = weak["frame"] == frames[0]
+    check(np.sum(first) == 5 * np.unique(weak["x"][first]).size,
+          "3D: each map is a full x-z raster")
+    check_html(report_dir, expected_images=4)
+    check_png(report_dir / "failure_maps.png")
+
+
+def check_slide(binary, work):
+    out = run_scene(binary, work, "slide", SLIDE)
+    # A heightfield's file in scene.toml is relative to the original scene's folder: the
+    # report must not need it (it reads no terrain).
+    with open(out / "scene.toml", "a") as f:
+        f.write('\n[[terrain]]\nshape = "heightfield"\nfile = "not-here.asc"\n')
+    firn(binary, "report", str(out), "--quiet")
+    report_dir = out / "report"
+    page = check_html(report_dir, expected_images=2)
+    check("no weak layer" in page, "a run without a weak layer says so instead of maps")
+    check(not (report_dir / "failure_maps.png").exists(), "no failure map is drawn")
+    image = check_png(report_dir / "mcclung_gauer.png")
+    # Our point is a red marker on both panels.
+    red = (image[..., 0] > 0.7) & (image[..., 1] < 0.3) & (image[..., 2] < 0.3)
+    check(red.sum() > 100, f"the run's point is drawn ({red.sum()} red pixels)")
+    info = json.loads((report_dir / "data" / "report.json").read_text())
+    check(info["deposit_far_x"] > info["release_top_x"], "the deposit lies down-slope of the top")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--firn", required=True)
+    parser.add_argument("--work", required=True)
+    args = parser.parse_args()
+    work = pathlib.Path(args.work)
+    work.mkdir(parents=True, exist_ok=True)
+    check_pst(args.firn, work)
+    check_pst_3d(args.firn, work)
+    check_slide(args.firn, work)
+    if FAILURES:
+        print(f"{len(FAILURES)} check(s) failed")
+        return 1
+    print("all checks passed")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,104 @@
+// firn report's C++ side: weak-layer binning and the choice of map frames, on synthetic data.
+#include "report/map_frames.h"
+#include "report/weak_layer_map.h"
+
+#include <firn/errors.h>
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <limits>
+
+using namespace firn;
+using namespace firn::report;
+
+namespace {
+
+constexpr std::int32_t kSlab = 0, kWeak = 1;
+const std::vector<bool> kIsWeakLayer = {false, true};
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+void addParticle(ParticleFrame& f, std::array<float, 3> P, std::int32_t material,
+                 std::array<float, 3> v = {0, 0, 0}, bool failed = false, float eta = 0,
+                 float p = 0) {
+    f.P.push_back(P);
+    f.v.push_back(v);
+    f.material.push_back(material);
+    f.failed.push_back(failed ? 1 : 0);
+    f.eps_v.push_back(0);
+    f.eta.push_back(eta);
+    f.p.push_back(p);
+    f.q.push_back(0);
+}
+
+} // namespace
+
+TEST_CASE("2D weak-layer cells: failed share, means and the slab speed above", "[report]") {
+    ParticleFrame f;
+    // Cell 0 (x in [0, 0.1)): one failed and one elastic weak-layer particle under a slab
+    // particle moving at 5 m/s.
+    addParticle(f, {0.02f, 0.01f, 0}, kWeak, {}, true, 0.2f, 1000);
+    addParticle(f, {0.07f, 0.02f, 0}, kWeak, {}, false, 0.0f, 3000);
+    addParticle(f, {0.05f, 0.30f, 0}, kSlab, {3, 4, 0});
+    // Cell 1: failed weak layer, two slab particles at 1 and 3 m/s.
+    addParticle(f, {0.15f, 0.01f, 0}, kWeak, {}, true, 0.4f, 500);
+    addParticle(f, {0.12f, 0.30f, 0}, kSlab, {1, 0, 0});
+    addParticle(f, {0.18f, 0.40f, 0}, kSlab, {0, -3, 0});
+    // Cell 2: slab only (a saw cut): no row. Cell -1: weak layer without slab above.
+    addParticle(f, {0.25f, 0.30f, 0}, kSlab, {9, 0, 0});
+    addParticle(f, {-0.05f, 0.01f, 0}, kWeak, {}, false, 0.0f, 200);
+
+    const auto cells = binWeakLayer(f, kIsWeakLayer, 0.1, 2);
+    REQUIRE(cells.size() == 3);
+    CHECK(cells[0].x == Approx(-0.05)); // floor, not truncation towards zero
+    CHECK(std::isnan(cells[0].slabSpeed));
+    CHECK(cells[1].x == Approx(0.05));
+    CHECK(cells[1].z == 0.0);
+    CHECK(cells[1].particles == 2);
+    CHECK(cells[1].failedFraction == Approx(0.5));
+    CHECK(cells[1].eta == Approx(0.1));
+    CHECK(cells[1].p == Approx(2000));
+    CHECK(cells[1].slabSpeed == Approx(5));
+    CHECK(cells[2].x == Approx(0.15));
+    CHECK(cells[2].failedFraction == 1.0);
+    CHECK(cells[2].slabSpeed == Approx(2));
+}
+
+TEST_CASE("3D weak-layer cells form an x-z raster in z-then-x order", "[report]") {
+    ParticleFrame f;
+    addParticle(f, {0.15f, 0.0f, 0.25f}, kWeak, {}, true);
+    addParticle(f, {0.05f, 0.0f, 0.25f}, kWeak);
+    addParticle(f, {0.15f, 0.0f, 0.05f}, kWeak);
+    addParticle(f, {0.15f, 0.5f, 0.05f}, kSlab, {0, 0, 2});
+    const auto cells = binWeakLayer(f, kIsWeakLayer, 0.1, 3);
+    REQUIRE(cells.size() == 3);
+    CHECK(cells[0].z == Approx(0.05));
+    CHECK(cells[0].slabSpeed == Approx(2));
+    CHECK(cells[1].z == Approx(0.25));
+    CHECK(cells[1].x == Approx(0.05));
+    CHECK(cells[2].x == Approx(0.15));
+    CHECK(cells[2].failedFraction == 1.0);
+}
+
+TEST_CASE("map frames: evenly spaced while the crack runs, or at requested times", "[report]") {
+    const std::vector<int> frames = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10};
+    std::vector<double> times;
+    for (int f : frames) times.push_back(0.01 * f);
+    // The crack appears at frame 2 and reaches its end (x = 3) at frame 8.
+    const std::vector<double> tip = {kNaN, kNaN, 1.0, 1.3, 1.7, 2.0, 2.4, 2.8, 3.0, 3.0, 3.0};
+    CHECK(chooseMapFrames(frames, times, tip, {}, 0.02) == std::vector<int>{2, 4, 6, 8});
+
+    SECTION("no crack: over the whole run") {
+        const std::vector<double> none(frames.size(), kNaN);
+        CHECK(chooseMapFrames(frames, times, none, {}, 0.02) == std::vector<int>{0, 3, 7, 10});
+    }
+    SECTION("requested times go to the nearest frame, sorted, each once") {
+        CHECK(chooseMapFrames(frames, times, tip, {0.052, 0.011, 0.013, 0.104}, 0.02) ==
+              std::vector<int>{1, 5, 10});
+    }
+    SECTION("a time outside the run names --times") {
+        REQUIRE_THROWS_AS(chooseMapFrames(frames, times, tip, {0.5}, 0.02), SceneError);
+        REQUIRE_THROWS_WITH(chooseMapFrames(frames, times, tip, {0.5}, 0.02),
+                            Catch::Contains("--times") && Catch::Contains("outside the run"));
+    }
+}
