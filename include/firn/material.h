@@ -35,6 +35,9 @@ struct PlasticState {
 };
 constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once
 constexpr std::uint32_t kFlagCollapsed = 2u; ///< weak layer fully softened (p0 reached 0)
+/// Asleep (solver sleeping): v = 0 and the C slot holds the frozen Kirchhoff stress, since an
+/// asleep particle has no velocity gradient and its stress array is scratch for re-bucketing.
+constexpr std::uint32_t kFlagAsleep = 4u;
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
 struct CamClayParams {

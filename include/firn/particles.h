@@ -46,8 +46,25 @@ struct ParticleSet {
 
     std::vector<LeafKey> leaves;          ///< sorted, unique, non-empty
     std::vector<std::uint32_t> leafStart; ///< leaves.size() + 1 offsets into the arrays
+    /// Per leaf, for sleeping: steps its particles have all been slow (carried over by key
+    /// through re-bucketing) and whether all of them are asleep (set by the sleep pass).
+    std::vector<std::uint16_t> leafQuietSteps;
+    std::vector<std::uint8_t> leafAsleep;
+    /// Per asleep leaf: the mean grid velocity of its block in the last step, i.e. what the
+    /// forces on the frozen snow would add to its velocity in one step (a load that changed).
+    std::vector<Vec3f> leafPush;
 
     std::size_t size() const { return x.size(); }
+    bool asleep(std::size_t i) const { return plastic[i].flags & kFlagAsleep; }
+    bool leafIsAsleep(std::size_t leaf) const {
+        return leaf < leafAsleep.size() && leafAsleep[leaf];
+    }
+    /// Kirchhoff stress of particle i, asleep or awake.
+    Sym3f stress(std::size_t i) const {
+        if (!asleep(i)) return tau[i];
+        const Mat3f& s = C[i];
+        return Sym3f{s(0, 0), s(1, 1), s(2, 2), s(0, 1), s(0, 2), s(1, 2)};
+    }
     std::size_t leafCount() const { return leaves.size(); }
 
     /// Appends one particle at rest with F = I (leaves are rebuilt by bucketByLeaf).

@@ -43,6 +43,11 @@ struct GridDesc {
     double cfl = 0.4;
     double maxDt = 1.0e-3; ///< s
     double jitter = 0.5;   ///< fraction of a sub-cell by which seeds are jittered
+    /// Resting snow sleeps: particles of a leaf whose snow, and its neighbours', has stayed below
+    /// sleepSpeed for sleepSteps steps skip G2P and plasticity until a moving neighbour wakes it.
+    bool sleep = true;
+    double sleepSpeed = 0.02; ///< m/s
+    int sleepSteps = 100;
 };
 
 /// [[material]]; defaults are those of scene-format.md.

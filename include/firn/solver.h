@@ -22,7 +22,10 @@ struct World {
     float cfl = 0.4f;
     float maxDt = 1e-3f;
     Vec3f gravity = Vec3f(0.f, -9.81f, 0.f);
-    float gravityRamp = 0.f; ///< s, see SimulationDesc::gravityRamp
+    float gravityRamp = 0.f;  ///< s, see SimulationDesc::gravityRamp
+    bool sleep = true;        ///< see GridDesc::sleep
+    float sleepSpeed = 0.02f; ///< m/s
+    int sleepSteps = 100;
 
     std::vector<Material> materials;
     std::vector<std::size_t> particlesPerBody; ///< seeded particles of each scene body
@@ -46,7 +49,7 @@ double stableTimeStep(const World& world);
 
 /// Wall time per stage of the last steps, seconds (accumulated).
 struct StepTimings {
-    double p2g = 0, gridUpdate = 0, g2p = 0, plasticity = 0, sort = 0;
+    double p2g = 0, gridUpdate = 0, g2p = 0, plasticity = 0, sort = 0, sleep = 0;
 };
 
 /// One explicit step of length dt. Times each stage into `timings` when given.
@@ -55,7 +58,22 @@ void step(World& world, double dt, StepTimings* timings = nullptr);
 /// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions.
 void updateGridVelocity(World& world, float dt);
 
-/// Return mapping and Kirchhoff stress of every particle from its trial F.
+/// Return mapping and Kirchhoff stress of every awake particle from its trial F.
 void applyPlasticity(World& world);
+
+/// Sleeping (GridDesc::sleep): puts to sleep the particles of leaves that, with all their
+/// neighbours, have been slower than sleepSpeed for sleepSteps steps, and wakes the asleep
+/// particles of leaves next to (or holding) a particle faster than that, or whose frozen snow
+/// the grid pushes harder than kWakeAcceleration. Run after plasticity (step dt), when the
+/// stress of every awake particle is current.
+void updateSleep(World& world, float dt);
+
+/// An asleep leaf whose block the grid accelerates by more than this (m/s^2, 5 % of g) wakes:
+/// its load has changed. Slower pushes are the residual of freezing a state that was nearly,
+/// not exactly, in equilibrium, which would otherwise wake deposits over and over.
+constexpr float kWakeAcceleration = 0.49f;
+
+/// Particles asleep after the last step.
+std::size_t asleepCount(const World& world);
 
 } // namespace firn

@@ -109,7 +109,8 @@ const std::vector<std::string> kMetricColumns = {"frame",
                                                  "gravitational_energy",
                                                  "energy_drift",
                                                  "crack_tip_min_x",
-                                                 "crack_tip_max_x"};
+                                                 "crack_tip_max_x",
+                                                 "asleep"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
@@ -170,7 +171,8 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          cell(d.gravitationalEnergy),
                          cell(watch ? watch->drift(d) : 0.0),
                          cell(d.crackMinX),
-                         cell(d.crackMaxX)});
+                         cell(d.crackMaxX),
+                         std::to_string(asleepCount(w))});
 }
 
 void writeSummary(const RunState& s, const RunResult& r, int threads) {

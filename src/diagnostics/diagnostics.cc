@@ -119,7 +119,7 @@ ParticleFrame exportParticles(const World& world) {
             f.failed[i] = (ps.plastic[i].flags & kFlagFailed) ? 1 : 0;
             f.eps_v[i] = ps.plastic[i].epsV;
             f.eta[i] = ps.plastic[i].eta;
-            const StressInvariants pq = invariantsOf(ps.tau[i], world.dim);
+            const StressInvariants pq = invariantsOf(ps.stress(i), world.dim);
             f.p[i] = pq.p;
             f.q[i] = pq.q;
         }

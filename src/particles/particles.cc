@@ -109,6 +109,21 @@ void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t
     leafStart.push_back(static_cast<std::uint32_t>(order.size()));
 }
 
+/// Per-leaf values of `newLeaves` from those of the same keys in `oldLeaves` (`fresh` for new
+/// keys); both sorted.
+template <typename T>
+std::vector<T> carryByKey(const std::vector<LeafKey>& oldLeaves, const std::vector<T>& oldValues,
+                          const std::vector<LeafKey>& newLeaves, const T& fresh) {
+    std::vector<T> values(newLeaves.size(), fresh);
+    if (oldValues.size() != oldLeaves.size()) return values;
+    std::size_t o = 0;
+    for (std::size_t k = 0; k < newLeaves.size(); ++k) {
+        while (o < oldLeaves.size() && keyLess(oldLeaves[o], newLeaves[k])) ++o;
+        if (o < oldLeaves.size() && oldLeaves[o] == newLeaves[k]) values[k] = oldValues[o];
+    }
+    return values;
+}
+
 } // namespace
 
 void ParticleSet::bucketByLeaf() {
@@ -118,6 +133,9 @@ void ParticleSet::bucketByLeaf() {
         std::vector<LeafKey> keys(n);
         for (std::size_t i = 0; i < n; ++i) keys[i] = leafOf(x[i], invDx, dim);
         sortFromScratch(keys, mOrder, leaves, leafStart);
+        leafQuietSteps.clear();
+        leafAsleep.clear();
+        leafPush.clear();
     } else {
         // A counting sort: particles move at most one leaf per step at CFL-limited steps, so
         // each leaf sends particles to its 27 neighbours (direction codes); rare far movers are
@@ -195,6 +213,9 @@ void ParticleSet::bucketByLeaf() {
                     if (code[i] != kFar) mOrder[next[code[i]]++] = i;
             }
         });
+        leafQuietSteps = carryByKey(leaves, leafQuietSteps, newLeaves, std::uint16_t(0));
+        leafPush = carryByKey(leaves, leafPush, newLeaves, Vec3f(Vec3f::Zero()));
+        leafAsleep.assign(newLeaves.size(), 0); // per-leaf state is rebuilt by the sleep pass
         leaves.swap(newLeaves);
         leafStart.swap(newStart);
     }

@@ -144,6 +144,9 @@ void readGrid(TableReader& r, GridDesc& grid) {
     r.real("cfl", grid.cfl, Range::openClosed(0.0, 10.0));
     r.real("max_dt", grid.maxDt, Range::positive());
     r.real("jitter", grid.jitter, Range::closed(0.0, 1.0));
+    r.boolean("sleep", grid.sleep);
+    r.real("sleep_speed", grid.sleepSpeed, Range::positive());
+    r.integer("sleep_steps", grid.sleepSteps, Range::closed(1, 60000));
     r.finish();
 }
 

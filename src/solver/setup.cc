@@ -248,6 +248,9 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene) {
     w.gravity = toVec3f(scene.simulation.gravity);
     if (w.dim == 2) w.gravity[2] = 0.f;
     w.gravityRamp = float(scene.simulation.gravityRamp);
+    w.sleep = scene.grid.sleep;
+    w.sleepSpeed = float(scene.grid.sleepSpeed);
+    w.sleepSteps = scene.grid.sleepSteps;
     for (const MaterialDesc& m : scene.materials)
         w.materials.push_back(Material::fromDesc(m, w.dim));
     for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));

@@ -113,6 +113,7 @@ void applyPlasticity(World& world) {
     const int dim = world.dim;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            if (ps.asleep(i)) continue;
             const Material& mat = world.materials[ps.material[i]];
             if (elasticFastPath(mat, ps.F[i], ps.plastic[i], dim, ps.tau[i])) continue;
             const LeftStretch ls = leftStretch(ps.F[i], dim);
@@ -157,6 +158,10 @@ void step(World& world, double dt, StepTimings* timings) {
     {
         StageClock clock(timings ? &timings->plasticity : nullptr);
         applyPlasticity(world);
+    }
+    {
+        StageClock clock(timings ? &timings->sleep : nullptr);
+        updateSleep(world, dtf);
     }
     world.time += dt;
     ++world.steps;

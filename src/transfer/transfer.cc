@@ -220,7 +220,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     const bool apic = params.transfer == Transfer::Apic;
     // MLS force: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al. 2018, eq. 18).
     auto stressImpulse = [&](std::uint32_t i) {
-        return Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.tau[i]));
+        return Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.stress(i)));
     };
     if (params.transfer != Transfer::Flip) {
         scatterLeaves<Dim, 4, true, 1>(
@@ -229,7 +229,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
                 value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
                 value[3] = m * ps.v[i][2];
                 affine = stressImpulse(i);
-                if (apic) affine += m * ps.C[i];
+                if (apic && !ps.asleep(i)) affine += m * ps.C[i];
             });
         mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
             float* mass = grid.mass(b);
@@ -264,6 +264,20 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     });
 }
 
+/// Mass-weighted mean velocity of the nodes of grid block b.
+inline Vec3f meanBlockVelocity(const Grid& grid, std::int32_t b) {
+    const float* mass = grid.mass(std::size_t(b));
+    const float* vel = grid.velocity(std::size_t(b));
+    Vec3f momentum = Vec3f::Zero();
+    float total = 0.f;
+    for (int n = 0; n < kLeafNodes; ++n) {
+        if (mass[n] <= 0.f) continue;
+        momentum += mass[n] * Vec3f(vel[3 * n], vel[3 * n + 1], vel[3 * n + 2]);
+        total += mass[n];
+    }
+    return total > 0.f ? Vec3f(momentum / total) : Vec3f(Vec3f::Zero());
+}
+
 template <int Dim, bool Flip>
 float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const float invDx = 1.f / ps.dx;
@@ -275,9 +289,14 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
             constexpr int channels = Flip ? 6 : 3;
             float local[paddedNodes<Dim>() * channels];
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                if (ps.leafIsAsleep(l)) { // at rest, state frozen: only watch for a push
+                    ps.leafPush[l] = meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0]);
+                    continue;
+                }
                 gatherPadded<Dim>(grid, l, velocityField, channels, 0, local);
                 if (Flip) gatherPadded<Dim>(grid, l, auxField, channels, 0, local + 3);
                 for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+                    if (ps.asleep(i)) continue;
                     const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                     Vec3f vPic, dvFlip;
                     Mat3f B;

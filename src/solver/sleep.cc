@@ -1,0 +1,133 @@
+// Sleeping: resting snow skips G2P and plasticity, as Houdini's MPM "auto sleep" does. The
+// unit is the particle leaf (8^d nodes): a leaf whose particles, and its neighbours', have all
+// been slower than sleepSpeed for sleepSteps steps goes to sleep; any particle at or above that
+// speed in a leaf or its neighbours wakes it, and so does a grid that accelerates the frozen
+// snow (a load that changed, a gravity ramp). Asleep particles still scatter their mass and
+// frozen stress in P2G, so the deposit keeps carrying the snow around it, and a moving neighbour
+// wakes it one step after it starts pushing.
+#include <firn/solver.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+
+namespace firn {
+namespace {
+
+struct LeafMotion {
+    float maxSpeed = 0.f; ///< over the awake particles
+    bool anyAsleep = false;
+    bool anyAwake = false;
+    bool pushed = false; ///< asleep, and the grid accelerates it (its load changed)
+};
+
+/// Indices of the existing neighbour leaves (3^dim - 1 offsets) of every leaf.
+std::vector<std::vector<std::uint32_t>> neighbourLeaves(const ParticleSet& ps) {
+    const std::size_t nl = ps.leafCount();
+    const int nz = ps.dim == 3 ? 1 : 0;
+    std::vector<std::vector<std::uint32_t>> out(nl);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 64), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            for (int dx = -1; dx <= 1; ++dx)
+                for (int dy = -1; dy <= 1; ++dy)
+                    for (int dz = -nz; dz <= nz; ++dz) {
+                        if (!dx && !dy && !dz) continue;
+                        const LeafKey k = {ps.leaves[l][0] + dx, ps.leaves[l][1] + dy,
+                                           ps.leaves[l][2] + dz};
+                        const auto it = std::lower_bound(ps.leaves.begin(), ps.leaves.end(), k);
+                        if (it != ps.leaves.end() && *it == k)
+                            out[l].push_back(static_cast<std::uint32_t>(it - ps.leaves.begin()));
+                    }
+        }
+    });
+    return out;
+}
+
+Mat3f toMatrix(const Sym3f& t) {
+    Mat3f m;
+    m << t.xx, t.xy, t.xz, t.xy, t.yy, t.yz, t.xz, t.yz, t.zz;
+    return m;
+}
+
+} // namespace
+
+void updateSleep(World& world, float dt) {
+    ParticleSet& ps = world.particles;
+    const std::size_t nl = ps.leafCount();
+    if (!world.sleep || nl == 0) return;
+    if (ps.leafQuietSteps.size() != nl) ps.leafQuietSteps.assign(nl, 0);
+    if (ps.leafPush.size() != nl) ps.leafPush.assign(nl, Vec3f::Zero());
+    ps.leafAsleep.assign(nl, 0);
+
+    std::vector<LeafMotion> motion(nl);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 16), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            LeafMotion& m = motion[l];
+            for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+                if (ps.asleep(i)) {
+                    m.anyAsleep = true;
+                } else {
+                    m.anyAwake = true;
+                    m.maxSpeed = std::max(m.maxSpeed, ps.v[i].norm());
+                }
+            }
+            m.pushed = ps.leafPush[l].norm() > kWakeAcceleration * dt;
+            // While gravity ramps up the load is changing: nothing counts as at rest.
+            const bool ramping = world.time < world.gravityRamp;
+            const bool slow = m.maxSpeed < world.sleepSpeed && !ramping;
+            std::uint16_t& quiet = ps.leafQuietSteps[l];
+            quiet = slow ? static_cast<std::uint16_t>(std::min<int>(quiet + 1, 65535)) : 0;
+        }
+    });
+    const auto neighbours = neighbourLeaves(ps);
+    const std::uint16_t needed = static_cast<std::uint16_t>(std::min(world.sleepSteps, 65535));
+    // Decisions read only this step's motion and counters, so they do not depend on the order
+    // in which leaves are visited: the same for any thread count.
+    std::vector<std::uint8_t> woken(nl, 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 16), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            bool moving = motion[l].maxSpeed >= world.sleepSpeed;
+            bool allQuiet = ps.leafQuietSteps[l] >= needed;
+            for (std::uint32_t n : neighbours[l]) {
+                moving |= motion[n].maxSpeed >= world.sleepSpeed;
+                allQuiet &= ps.leafQuietSteps[n] >= needed;
+            }
+            const bool wake = (moving || motion[l].pushed) && motion[l].anyAsleep;
+            const bool fallAsleep = !moving && allQuiet && motion[l].anyAwake;
+            woken[l] = wake;
+            for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+                PlasticState& s = ps.plastic[i];
+                if (wake && (s.flags & kFlagAsleep)) {
+                    ps.tau[i] = ps.stress(i);
+                    ps.C[i].setZero();
+                    s.flags &= ~kFlagAsleep;
+                } else if (fallAsleep && !(s.flags & kFlagAsleep)) {
+                    ps.C[i] = toMatrix(ps.tau[i]); // kFlagAsleep: C holds the frozen stress
+                    ps.v[i].setZero();
+                    s.flags |= kFlagAsleep;
+                }
+            }
+            ps.leafAsleep[l] = !wake && (fallAsleep || !motion[l].anyAwake);
+            if (!ps.leafAsleep[l]) ps.leafPush[l].setZero();
+        }
+    });
+    // A woken leaf must be quiet for sleepSteps again before it may sleep.
+    for (std::size_t l = 0; l < nl; ++l) {
+        if (woken[l]) ps.leafQuietSteps[l] = 0;
+    }
+}
+
+std::size_t asleepCount(const World& world) {
+    const ParticleSet& ps = world.particles;
+    return tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(0, ps.size(), 4096), std::size_t(0),
+        [&](const auto& r, std::size_t n) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) n += ps.asleep(i) ? 1 : 0;
+            return n;
+        },
+        [](std::size_t a, std::size_t b) { return a + b; });
+}
+
+} // namespace firn
