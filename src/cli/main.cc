@@ -1,9 +1,13 @@
 // firn: run, check scenes. Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable,
 // 3 I/O error, 4 internal error (a bug: please report), 130 interrupted (SIGINT/SIGTERM).
 #include <firn/errors.h>
+#include <firn/report.h>
 #include <firn/run.h>
 #include <firn/scene.h>
 
+#include "render_command.h"
+
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <exception>
@@ -17,11 +21,15 @@ const char* kUsage = R"(firn - snow avalanche simulation with the material point
 usage:
   firn run SCENE.toml [--threads N] [--out DIR] [--set key=value ...] [--quiet]
   firn check SCENE.toml [--set key=value ...]
+  firn render OUT_DIR [--color-by Q] [--frames A:B] [--size WxH] [more: firn render --help]
+  firn report OUT_DIR [--times t1,t2,...] [--quiet]
   firn --help | firn COMMAND --help | firn --version
 
 commands:
   run     simulate the scene; write VDB caches, metrics.csv and summary.json
   check   parse and validate the scene, print what it would simulate, run nothing
+  render  PNG frames, a contact sheet and a video of a finished run in OUT_DIR/render/
+  report  charts of a finished run (failure maps, crack, flow) in OUT_DIR/report/report.html
 
 Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O error,
 4 internal error, 130 interrupted. See README.md for the scene reference.
@@ -51,13 +59,30 @@ Parses and validates the scene without running it and prints the particles per m
 grid spacing, the time step and the estimated number of steps. Exit code 1 on any scene error.
 )";
 
+const char* kReportHelp = R"(usage: firn report OUT_DIR [--times t1,t2,...] [--quiet]
+
+Writes OUT_DIR/report/report.html (self-contained, images embedded) and its PNGs from a folder
+written by `firn run`: failure maps of the weak layer (failed/elastic, pressure p, slab speed;
+Gaume et al. 2019, Fig. A1), crack tip against time and crack speed against position, maximum
+flow speed and kinetic energy against time, the run on the McClung & Gauer (2018) diagram and
+its alpha angle, and the summary table. The tables behind the charts are in OUT_DIR/report/data.
+Needs /usr/bin/python3 with matplotlib (Debian: python3-matplotlib).
+
+options:
+  --times t1,t2,...  simulated times (s) of the failure maps; each map shows the nearest frame
+                     (default: 4 frames evenly spaced while the crack runs, else over the run)
+  --quiet            no progress lines on stderr
+  -h, --help         this text
+)";
+
 struct UsageError {
     std::string message;
 };
 
 struct Command {
-    std::string name, scene;
+    std::string name, scene; // scene: the scene file, or the output folder for `report`
     firn::RunOptions run;
+    firn::ReportOptions report;
     std::vector<std::string> overrides;
     bool help = false;
 };
@@ -65,6 +90,27 @@ struct Command {
 std::string needValue(int& i, int argc, char** argv) {
     if (i + 1 >= argc) throw UsageError{std::string(argv[i]) + " needs a value"};
     return argv[++i];
+}
+
+std::vector<double> parseTimes(const std::string& text) {
+    std::vector<double> times;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const std::size_t comma = std::min(text.find(',', start), text.size());
+        const std::string item = text.substr(start, comma - start);
+        try {
+            std::size_t used = 0;
+            const double t = std::stod(item, &used);
+            if (used != item.size() || !(t >= 0.0)) throw std::invalid_argument(item);
+            times.push_back(t);
+        } catch (const std::exception&) {
+            throw UsageError{"--times takes times in seconds separated by commas, e.g. "
+                             "--times 0.1,0.2; got '" +
+                             item + "' in '" + text + "'"};
+        }
+        start = comma + 1;
+    }
+    return times;
 }
 
 int parseThreads(const std::string& text) {
@@ -92,18 +138,36 @@ Command parseCommand(int argc, char** argv) {
             c.run.outDir = needValue(i, argc, argv);
         else if (a == "--quiet" && c.name == "run")
             c.run.quiet = true;
+        else if (a == "--times" && c.name == "report")
+            c.report.times = parseTimes(needValue(i, argc, argv));
+        else if (a == "--quiet" && c.name == "report")
+            c.report.quiet = true;
         else if (!a.empty() && a[0] == '-')
             throw UsageError{"unknown option '" + a + "' for firn " + c.name};
         else if (c.scene.empty())
             c.scene = a;
+        else if (c.name == "report")
+            throw UsageError{"one output folder only, got '" + c.scene + "' and '" + a + "'"};
         else
             throw UsageError{"one scene file only, got '" + c.scene + "' and '" + a + "'"};
     }
-    if (!c.help && c.scene.empty()) throw UsageError{"firn " + c.name + " needs a scene file"};
+    if (!c.help && c.scene.empty()) {
+        throw UsageError{"firn " + c.name +
+                         (c.name == "report" ? " needs an output folder" : " needs a scene file")};
+    }
+    if (c.name == "report" && !c.overrides.empty()) {
+        throw UsageError{"--set does not apply to firn report (it reads the run as it was)"};
+    }
     return c;
 }
 
 int runCommand(const Command& c) {
+    if (c.name == "report") {
+        firn::ReportOptions options = c.report;
+        options.outDir = c.scene;
+        std::printf("%s\n", firn::writeReport(options).c_str());
+        return 0;
+    }
     const firn::SceneDesc scene = firn::loadScene(c.scene, c.overrides);
     if (c.name == "check") {
         std::fputs(firn::describeScene(scene).c_str(), stdout);
@@ -138,10 +202,27 @@ int main(int argc, char** argv) {
     }
     try {
         const std::string name = argv[1];
-        if (name != "run" && name != "check") throw UsageError{"unknown command '" + name + "'"};
+        if (name == "render") {
+            firn::cli::RenderCommand c;
+            try {
+                c = firn::cli::parseRenderCommand({argv + 2, argv + argc});
+            } catch (const std::invalid_argument& e) {
+                throw UsageError{e.what()};
+            }
+            if (c.help) {
+                std::fputs(firn::cli::kRenderHelp, stdout);
+                return 0;
+            }
+            return firn::cli::runRenderCommand(c);
+        }
+        if (name != "run" && name != "check" && name != "report")
+            throw UsageError{"unknown command '" + name + "'"};
         const Command c = parseCommand(argc, argv);
         if (c.help) {
-            std::fputs(c.name == "run" ? kRunHelp : kCheckHelp, stdout);
+            std::fputs(c.name == "run"      ? kRunHelp
+                       : c.name == "report" ? kReportHelp
+                                            : kCheckHelp,
+                       stdout);
             return 0;
         }
         return runCommand(c);
