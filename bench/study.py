@@ -6,11 +6,12 @@ of every run.
     /usr/bin/python3 bench/study.py stability|accuracy|slice|throughput [--quick] [--threads N]
 
 Studies:
-  stability  a stiff elastic block dropped on the ground, CFL 0.1-2.0 x transfer (APIC, PIC,
-             FLIP 0.95, FLIP 0.99) x particles per cell: each run is stable, unstable (the
-             solver's own status) or inaccurate (|energy drift| above 5 % of the initial
-             energy scale). --quick runs a small subset and checks that APIC at CFL 0.4 is
-             stable and that CFL 2.0 is not.
+  stability  a stiff elastic block dropped on the ground and a cohesive Cam-Clay snow slab
+             sliding on a 35 degree slope, CFL 0.1-2.0 x transfer (APIC, PIC, FLIP 0.95,
+             FLIP 0.99) x particles per cell: each run is stable, unstable (the solver's own
+             status) or inaccurate (energy gain above 5 % of the energy scale). --quick runs a
+             small subset and checks that APIC at CFL 0.4 is stable on both and that the block
+             at CFL 2.0 is not.
   accuracy   accuracy against cost on the validation cases with a reference: V1 sliding block
              (acceleration), V2 P-wave speed, V7 granular column collapse (Lube et al. 2005
              runout at a = 1) and V8 PST critical cut length (bisection; full run only), over
@@ -68,6 +69,43 @@ velocity = [0.5, -1.0]
 particles = false
 volumes = []
 """
+
+# A cohesive Cam-Clay snow slab (snow-model.md defaults, E 1 MPa) sliding down a 35 degree
+# plane (mu 0.2): the second stability case, with plasticity and a free surface in motion.
+SNOW_SLAB = """
+[simulation]
+name = "snow-slab"
+dimension = 2
+end_time = 0.5
+frame_rate = 50
+gravity = [0.0, -9.81]
+[grid]
+dx = 0.05
+particles_per_cell = 4
+max_dt = 1.0
+[[material]]
+name = "snow"
+model = "snow"
+density = 250.0
+youngs_modulus = 1.0e6
+poisson_ratio = 0.2
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.573576, 0.819152]
+boundary = "friction"
+friction = 0.2
+[[body]]
+material = "snow"
+shape = "layer"
+thickness = 0.4
+x_range = [0.0, 3.0]
+[output]
+particles = false
+volumes = []
+"""
+STABILITY_CASES = {"block": ("Stiff elastic block dropped on the ground", STIFF_BLOCK),
+                   "slab": ("Snow slab sliding on a 35 degree slope", SNOW_SLAB)}
 
 TRANSFERS = {"apic": ["grid.transfer=apic"], "pic": ["grid.transfer=pic"],
              "flip95": ["grid.transfer=flip", "grid.flip_blend=0.95"],
@@ -149,23 +187,25 @@ def stability(args, out_dir):
     transfers = ["apic", "flip99"] if args.quick else list(TRANSFERS)
     rows = []
     with tempfile.TemporaryDirectory() as work:
-        scene = os.path.join(work, "stiff-block.toml")
-        with open(scene, "w") as f:
-            f.write(STIFF_BLOCK)
-        for transfer in transfers:
-            for ppc in ppcs:
-                for cfl in cfls:
-                    overrides = TRANSFERS[transfer] + [f"grid.cfl={cfl}",
-                                                       f"grid.particles_per_cell={ppc}"]
-                    out = os.path.join(work, f"{transfer}-{ppc}-{cfl}")
-                    code, summary, metrics = run_scene(args, scene, overrides, out)
-                    outcome, drift = classify(code, summary, metrics)
-                    rows.append({"transfer": transfer, "particles_per_cell": ppc, "cfl": cfl,
-                                 "outcome": outcome, "energy_drift": drift,
-                                 "steps": summary["steps"],
-                                 "wall_seconds": summary["wall_seconds"],
-                                 "overrides": " ".join(overrides)})
-                    print(f"{transfer:7s} ppc {ppc} cfl {cfl:4.2f}: {outcome}", flush=True)
+        for case, (_, text) in STABILITY_CASES.items():
+            scene = os.path.join(work, f"{case}.toml")
+            with open(scene, "w") as f:
+                f.write(text)
+            for transfer in transfers:
+                for ppc in ppcs:
+                    for cfl in cfls:
+                        overrides = TRANSFERS[transfer] + [f"grid.cfl={cfl}",
+                                                           f"grid.particles_per_cell={ppc}"]
+                        out = os.path.join(work, f"{case}-{transfer}-{ppc}-{cfl}")
+                        code, summary, metrics = run_scene(args, scene, overrides, out)
+                        outcome, drift = classify(code, summary, metrics)
+                        rows.append({"case": case, "transfer": transfer,
+                                     "particles_per_cell": ppc, "cfl": cfl, "outcome": outcome,
+                                     "energy_drift": drift, "steps": summary["steps"],
+                                     "wall_seconds": summary["wall_seconds"],
+                                     "overrides": " ".join(overrides)})
+                        print(f"{case:5s} {transfer:7s} ppc {ppc} cfl {cfl:4.2f}: {outcome}",
+                              flush=True)
     return rows
 
 
@@ -679,19 +719,25 @@ def chart_stability(rows, out_dir):
         print("matplotlib missing (Debian: python3-matplotlib): no chart")
         return
     colours = {"stable": "tab:green", "inaccurate": "tab:orange", "unstable": "tab:red"}
+    cases = [c for c in STABILITY_CASES if any(r.get("case", "block") == c for r in rows)]
     labels = sorted({(r["transfer"], r["particles_per_cell"]) for r in rows})
-    fig, ax = plt.subplots(figsize=(7, 0.5 * len(labels) + 1.5))
-    for y, (transfer, ppc) in enumerate(labels):
-        for r in rows:
-            if (r["transfer"], r["particles_per_cell"]) == (transfer, ppc):
-                ax.scatter(r["cfl"], y, c=colours[r["outcome"]], s=120, marker="s")
-    ax.set_yticks(range(len(labels)))
-    ax.set_yticklabels([f"{t}, {p} ppc" for t, p in labels])
-    ax.set_xlabel("CFL number")
-    ax.set_title("Stiff elastic block dropped on the ground: stability map")
+    fig, axes = plt.subplots(1, len(cases), figsize=(6 * len(cases), 0.5 * len(labels) + 1.8),
+                             sharey=True, squeeze=False)
+    for ax, case in zip(axes[0], cases):
+        for y, (transfer, ppc) in enumerate(labels):
+            for r in rows:
+                if (r.get("case", "block"), r["transfer"], r["particles_per_cell"]) == (
+                        case, transfer, ppc):
+                    ax.scatter(r["cfl"], y, c=colours[r["outcome"]], s=120, marker="s")
+        ax.set_yticks(range(len(labels)))
+        ax.set_yticklabels([f"{t}, {p} ppc" for t, p in labels])
+        ax.set_xlabel("CFL number")
+        ax.set_title(STABILITY_CASES[case][0], fontsize="medium")
     for outcome, colour in colours.items():
-        ax.scatter([], [], c=colour, marker="s", label=outcome)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+        axes[0][-1].scatter([], [], c=colour, marker="s", label=outcome)
+    axes[0][-1].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize="small")
+    fig.suptitle("Stability map: stable, unstable (solver status) or inaccurate "
+                 f"(energy gain > {100 * DRIFT_LIMIT:.0f} % of the energy scale)", fontsize="small")
     fig.tight_layout()
     for ext in ("png", "svg"):
         fig.savefig(os.path.join(out_dir, f"stability.{ext}"))
@@ -718,9 +764,13 @@ def quick_check(study, rows):
     if study == "throughput":
         return True  # timings are reported, never asserted
     if study == "stability":
-        outcome = {(r["transfer"], r["cfl"]): r["outcome"] for r in rows}
-        if outcome[("apic", 0.4)] != "stable" or outcome[("apic", 2.0)] == "stable":
-            print("check failed: APIC must be stable at CFL 0.4 and not at CFL 2.0")
+        outcome = {(r["case"], r["transfer"], r["cfl"]): r["outcome"] for r in rows}
+        if outcome[("block", "apic", 0.4)] != "stable" or \
+                outcome[("block", "apic", 2.0)] == "stable":
+            print("check failed: APIC must be stable at CFL 0.4 and not at CFL 2.0 (block)")
+            return False
+        if outcome[("slab", "apic", 0.4)] != "stable":
+            print("check failed: APIC must be stable at CFL 0.4 (snow slab)")
             return False
         return True
     ok = True
@@ -791,7 +841,7 @@ def main():
         writer = csv.DictWriter(f, fieldnames=fields)
         writer.writeheader()
         writer.writerows(rows)
-    scene = {"stability": STIFF_BLOCK,
+    scene = {"stability": {case: text for case, (_, text) in STABILITY_CASES.items()},
              "accuracy": {"v1": SLIDING_BLOCK, "v2": wave_scene(),
                           "v7": column_scene(), "v8": "scenes/pst.toml"},
              "throughput": "bench/bench_core.cc blockScene()",

@@ -3,6 +3,7 @@
 #include <firn/render.h>
 #include <firn/run.h>
 
+#include "cli/render_command.h"
 #include "test_util.h"
 
 #include <catch2/catch.hpp>
@@ -239,4 +240,56 @@ TEST_CASE("firn render names what is missing", "[render]") {
     CHECK_THROWS_WITH(renderOutput(dir.path(), options), Catch::Contains("firn run"));
     std::filesystem::create_directories(dir.path() + "/frames");
     CHECK_THROWS_WITH(renderOutput(dir.path(), options), Catch::Contains("volume.NNNN.vdb"));
+}
+
+TEST_CASE("Videos come from ffmpeg when it is there, and are skipped cleanly when not",
+          "[render]") {
+    TempDir dir("firn-render-video");
+    SceneDesc scene =
+        parseScene(slurp(FIRN_SOURCE_DIR "/scenes/default.toml"),
+                   FIRN_SOURCE_DIR "/scenes/default.toml", {"simulation.end_time=0.25"});
+    RunOptions run;
+    run.outDir = dir.path();
+    run.quiet = true;
+    REQUIRE(runScene(scene, run).status == "ok");
+    RenderOptions options;
+    options.dimension = 2;
+    options.view.width = 160, options.view.height = 90;
+    options.quiet = true;
+    options.ffmpeg = "firn-no-such-ffmpeg";
+    CHECK(renderOutput(dir.path(), options).videos.empty());
+    CHECK_FALSE(std::filesystem::exists(dir.path() + "/render/animation.mp4"));
+    if (!std::filesystem::exists("/usr/bin/ffmpeg")) return; // Debian's ffmpeg: optional
+    options.ffmpeg = "ffmpeg";
+    const RenderResult r = renderOutput(dir.path(), options);
+    REQUIRE(r.videos.size() == 2);
+    for (const std::string& video : r.videos) CHECK(std::filesystem::file_size(video) > 1000);
+}
+
+TEST_CASE("firn render options become [render] overrides; bad ones are usage errors", "[render]") {
+    using firn::cli::parseRenderCommand;
+    const auto c = parseRenderCommand({"out/x", "--size", "640x360", "--color-by", "eta",
+                                       "--camera", "1,2,3", "--look-at", "0,0,0", "--frames",
+                                       "4:20:2", "--no-video", "--threads", "2"});
+    CHECK(c.outDir == "out/x");
+    CHECK(c.options.firstFrame == 4);
+    CHECK(c.options.lastFrame == 20);
+    CHECK(c.options.frameStep == 2);
+    CHECK_FALSE(c.options.video);
+    CHECK(c.options.threads == 2);
+    const SceneDesc d = parseScene("[simulation]\nname = \"x\"\n", "out/x/scene.toml", c.overrides);
+    CHECK(d.render.width == 640);
+    CHECK(d.render.height == 360);
+    CHECK(d.render.colorBy == ColorBy::Eta);
+    CHECK_FALSE(d.render.autoCamera);
+    CHECK(d.render.cameraPosition[2] == 3.0);
+    CHECK_THROWS_WITH(parseRenderCommand({"out/x", "--size", "640"}),
+                      Catch::Contains("WIDTHxHEIGHT"));
+    CHECK_THROWS_WITH(parseRenderCommand({"out/x", "--frames", "a:b"}),
+                      Catch::Contains("--frames"));
+    CHECK_THROWS_WITH(parseRenderCommand({"--quiet"}), Catch::Contains("needs an output folder"));
+    CHECK_THROWS_WITH(parseRenderCommand({"out/x", "--bogus"}), Catch::Contains("--bogus"));
+    CHECK_THROWS_WITH(parseScene("[simulation]\nname = \"x\"\n", "s.toml",
+                                 parseRenderCommand({"out/x", "--color-by", "mass"}).overrides),
+                      Catch::Contains("render.color_by"));
 }
