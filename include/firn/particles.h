@@ -47,17 +47,21 @@ struct ParticleSet {
     std::vector<LeafKey> leaves;          ///< sorted, unique, non-empty
     std::vector<std::uint32_t> leafStart; ///< leaves.size() + 1 offsets into the arrays
     /// Per leaf, for sleeping: steps its particles have all been slow (carried over by key
-    /// through re-bucketing) and whether all of them are asleep (set by the sleep pass).
+    /// through re-bucketing) and how deep it sleeps (set by the sleep pass, SleepLevel).
     std::vector<std::uint16_t> leafQuietSteps;
-    std::vector<std::uint8_t> leafAsleep;
+    std::vector<std::uint8_t> leafSleep;
     /// Per asleep leaf: the mean grid velocity of its block in the last step, i.e. what the
     /// forces on the frozen snow would add to its velocity in one step (a load that changed).
     std::vector<Vec3f> leafPush;
 
     std::size_t size() const { return x.size(); }
     bool asleep(std::size_t i) const { return plastic[i].flags & kFlagAsleep; }
-    bool leafIsAsleep(std::size_t leaf) const {
-        return leaf < leafAsleep.size() && leafAsleep[leaf];
+    /// How deep a leaf sleeps: awake (some particle awake), asleep (all), interior (it and its
+    /// neighbours: nothing awake reads its push), deep (all within two leaves: nothing awake
+    /// reads the nodes it scatters to, so it skips P2G too).
+    enum SleepLevel : std::uint8_t { kAwake = 0, kAsleep = 1, kInterior = 2, kDeep = 3 };
+    SleepLevel leafSleepLevel(std::size_t leaf) const {
+        return leaf < leafSleep.size() ? SleepLevel(leafSleep[leaf]) : kAwake;
     }
     /// Kirchhoff stress of particle i, asleep or awake.
     Sym3f stress(std::size_t i) const {

@@ -134,7 +134,7 @@ void ParticleSet::bucketByLeaf() {
         for (std::size_t i = 0; i < n; ++i) keys[i] = leafOf(x[i], invDx, dim);
         sortFromScratch(keys, mOrder, leaves, leafStart);
         leafQuietSteps.clear();
-        leafAsleep.clear();
+        leafSleep.clear();
         leafPush.clear();
     } else {
         // A counting sort: particles move at most one leaf per step at CFL-limited steps, so
@@ -215,7 +215,7 @@ void ParticleSet::bucketByLeaf() {
         });
         leafQuietSteps = carryByKey(leaves, leafQuietSteps, newLeaves, std::uint16_t(0));
         leafPush = carryByKey(leaves, leafPush, newLeaves, Vec3f(Vec3f::Zero()));
-        leafAsleep.assign(newLeaves.size(), 0); // per-leaf state is rebuilt by the sleep pass
+        leafSleep.assign(newLeaves.size(), 0); // per-leaf state is rebuilt by the sleep pass
         leaves.swap(newLeaves);
         leafStart.swap(newStart);
     }

@@ -45,6 +45,21 @@ std::vector<std::vector<std::uint32_t>> neighbourLeaves(const ParticleSet& ps) {
     return out;
 }
 
+/// Raises leaves at `level` whose neighbours are all at `level` or deeper to `deeper`, from a
+/// snapshot, so the result does not depend on the visiting order.
+void deepen(ParticleSet& ps, const std::vector<std::vector<std::uint32_t>>& neighbours,
+            std::uint8_t level, std::uint8_t deeper) {
+    const std::vector<std::uint8_t> before = ps.leafSleep;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, before.size(), 64), [&](const auto& r) {
+        for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            if (before[l] != level) continue;
+            bool all = true;
+            for (std::uint32_t n : neighbours[l]) all &= before[n] >= level;
+            if (all) ps.leafSleep[l] = deeper;
+        }
+    });
+}
+
 Mat3f toMatrix(const Sym3f& t) {
     Mat3f m;
     m << t.xx, t.xy, t.xz, t.xy, t.yy, t.yz, t.xz, t.yz, t.zz;
@@ -59,7 +74,7 @@ void updateSleep(World& world, float dt) {
     if (!world.sleep || nl == 0) return;
     if (ps.leafQuietSteps.size() != nl) ps.leafQuietSteps.assign(nl, 0);
     if (ps.leafPush.size() != nl) ps.leafPush.assign(nl, Vec3f::Zero());
-    ps.leafAsleep.assign(nl, 0);
+    ps.leafSleep.assign(nl, ParticleSet::kAwake);
 
     std::vector<LeafMotion> motion(nl);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 16), [&](const auto& r) {
@@ -73,6 +88,8 @@ void updateSleep(World& world, float dt) {
                     m.maxSpeed = std::max(m.maxSpeed, ps.v[i].norm());
                 }
             }
+            // Only leaves next to awake snow watch their push (SleepLevel): deeper ones leave
+            // it at zero and are woken through their neighbours.
             m.pushed = ps.leafPush[l].norm() > kWakeAcceleration * dt;
             // While gravity ramps up the load is changing: nothing counts as at rest.
             const bool ramping = world.time < world.gravityRamp;
@@ -109,10 +126,13 @@ void updateSleep(World& world, float dt) {
                     s.flags |= kFlagAsleep;
                 }
             }
-            ps.leafAsleep[l] = !wake && (fallAsleep || !motion[l].anyAwake);
-            if (!ps.leafAsleep[l]) ps.leafPush[l].setZero();
+            const bool asleep = !wake && (fallAsleep || !motion[l].anyAwake);
+            ps.leafSleep[l] = asleep ? ParticleSet::kAsleep : ParticleSet::kAwake;
+            if (!asleep) ps.leafPush[l].setZero();
         }
     });
+    deepen(ps, neighbours, ParticleSet::kAsleep, ParticleSet::kInterior);
+    deepen(ps, neighbours, ParticleSet::kInterior, ParticleSet::kDeep);
     // A woken leaf must be quiet for sleepSteps again before it may sleep.
     for (std::size_t l = 0; l < nl; ++l) {
         if (woken[l]) ps.leafQuietSteps[l] = 0;

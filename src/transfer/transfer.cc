@@ -121,14 +121,17 @@ inline void gatherParticle(const Stencil& s, const float* local, int channels, V
 
 /// Scatter phase. ParticleFn(i, float value[NC], Mat3f& affine) fills the constant part of the
 /// particle's contribution and, if Affine, a matrix (per metre) whose product with the node
-/// offset is added to channels AffineAt .. AffineAt + 2.
+/// offset is added to channels AffineAt .. AffineAt + 2. With skipDeepSleepers, leaves in deep
+/// sleep (ParticleSet::SleepLevel) scatter nothing: no awake particle reads those nodes.
 template <int Dim, int NC, bool Affine, int AffineAt, typename ParticleFn>
-void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, ParticleFn&& fn) {
+void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipDeepSleepers,
+                   ParticleFn&& fn) {
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
     padded.assign(ps.leafCount() * stride, 0.f);
     const float invDx = 1.f / ps.dx;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
         for (std::size_t l = r.begin(); l != r.end(); ++l) {
+            if (skipDeepSleepers && ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
             float* buf = padded.data() + l * stride;
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
@@ -224,7 +227,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     };
     if (params.transfer != Transfer::Flip) {
         scatterLeaves<Dim, 4, true, 1>(
-            ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f& affine) {
+            ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
                 const float m = ps.mass[i];
                 value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
                 value[3] = m * ps.v[i][2];
@@ -244,7 +247,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     // FLIP keeps the transferred momentum and the stress impulse apart: the grid velocity
     // before forces is the reference of the FLIP increment.
     scatterLeaves<Dim, 7, true, 4>(
-        ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f& affine) {
+        ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
             const float m = ps.mass[i];
             value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
             value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
@@ -289,8 +292,12 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
             constexpr int channels = Flip ? 6 : 3;
             float local[paddedNodes<Dim>() * channels];
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
-                if (ps.leafIsAsleep(l)) { // at rest, state frozen: only watch for a push
-                    ps.leafPush[l] = meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0]);
+                const auto sleep = ps.leafSleepLevel(l);
+                if (sleep != ParticleSet::kAwake) { // at rest, state frozen
+                    // Next to awake snow it watches for a push; deeper in, its block's nodes
+                    // lack the scatter of deep leaves (P2G), and nothing is read.
+                    if (sleep == ParticleSet::kAsleep)
+                        ps.leafPush[l] = meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0]);
                     continue;
                 }
                 gatherPadded<Dim>(grid, l, velocityField, channels, 0, local);
@@ -320,13 +327,14 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
 
 template <int Dim>
 VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& scratch) {
-    scatterLeaves<Dim, 6, false, 0>(ps, scratch.padded, [&](std::uint32_t i, float* value, Mat3f&) {
-        const float m = ps.mass[i];
-        value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
-        value[3] = m * ps.v[i][2];
-        value[4] = (ps.plastic[i].flags & kFlagFailed) ? m : 0.f;
-        value[5] = m * ps.plastic[i].eta;
-    });
+    scatterLeaves<Dim, 6, false, 0>(
+        ps, scratch.padded, false, [&](std::uint32_t i, float* value, Mat3f&) {
+            const float m = ps.mass[i];
+            value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+            value[3] = m * ps.v[i][2];
+            value[4] = (ps.plastic[i].flags & kFlagFailed) ? m : 0.f;
+            value[5] = m * ps.plastic[i].eta;
+        });
     VolumeFrame vf;
     vf.voxelSize = ps.dx;
     const std::size_t nb = grid.blockCount();
