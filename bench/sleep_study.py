@@ -164,13 +164,15 @@ def chart(out_dir):
     rows = list(csv.DictReader(open(os.path.join(out_dir, "results.csv"))))
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
     beside = [r for r in rows if r["in_path"] == "0"]
-    moving = [1.0 - float(r["asleep_end"]) / float(r["particles"]) for r in beside]
+    # The release is 9 m of the same 0.5 m layer: the resting share of the particles.
+    resting = [float(r["deposit_m"]) / (float(r["deposit_m"]) + 9.0) for r in beside]
     ax1.plot([float(r["deposit_m"]) for r in beside], [float(r["wall_off_s"]) for r in beside],
              "o-", label="sleep off")
     ax1.plot([float(r["deposit_m"]) for r in beside], [float(r["wall_on_s"]) for r in beside],
              "s-", label="sleep on")
-    for r, m in zip(beside, moving):
-        ax1.annotate(f"{100 * m:.0f}% awake", (float(r["deposit_m"]), float(r["wall_on_s"])),
+    for r, share in zip(beside, resting):
+        ax1.annotate(f"{100 * share:.0f}% resting, x{float(r['speedup']):.2f}",
+                     (float(r["deposit_m"]), float(r["wall_on_s"])),
                      textcoords="offset points", xytext=(4, -12), fontsize=8)
     ax1.set_xlabel("resting deposit beside the flow (m of 0.5 m layer)")
     ax1.set_ylabel("wall time (s)")

@@ -49,6 +49,17 @@ std::string slurp(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+/// Runs the default scene (2D release on the 25 m slope) for `endTime` seconds into `dir`.
+void runDefaultScene(const TempDir& dir, double endTime) {
+    const std::string path = FIRN_SOURCE_DIR "/scenes/default.toml";
+    const SceneDesc scene =
+        parseScene(slurp(path), path, {"simulation.end_time=" + std::to_string(endTime)});
+    RunOptions run;
+    run.outDir = dir.path();
+    run.quiet = true;
+    REQUIRE(runScene(scene, run).status == "ok");
+}
+
 } // namespace
 
 TEST_CASE("The automatic 3D camera keeps every corner of the box inside the image", "[render]") {
@@ -166,13 +177,7 @@ TEST_CASE("A contact sheet tiles and box-filters its frames", "[render]") {
 
 TEST_CASE("firn render draws the avalanche, framed, coloured over its range", "[render][e2e]") {
     TempDir dir("firn-render");
-    SceneDesc scene =
-        parseScene(slurp(FIRN_SOURCE_DIR "/scenes/default.toml"),
-                   FIRN_SOURCE_DIR "/scenes/default.toml", {"simulation.end_time=1.5"});
-    RunOptions run;
-    run.outDir = dir.path();
-    run.quiet = true;
-    REQUIRE(runScene(scene, run).status == "ok");
+    runDefaultScene(dir, 1.5);
 
     RenderOptions options;
     options.dimension = 2;
@@ -245,13 +250,7 @@ TEST_CASE("firn render names what is missing", "[render]") {
 TEST_CASE("Videos come from ffmpeg when it is there, and are skipped cleanly when not",
           "[render]") {
     TempDir dir("firn-render-video");
-    SceneDesc scene =
-        parseScene(slurp(FIRN_SOURCE_DIR "/scenes/default.toml"),
-                   FIRN_SOURCE_DIR "/scenes/default.toml", {"simulation.end_time=0.25"});
-    RunOptions run;
-    run.outDir = dir.path();
-    run.quiet = true;
-    REQUIRE(runScene(scene, run).status == "ok");
+    runDefaultScene(dir, 0.25);
     RenderOptions options;
     options.dimension = 2;
     options.view.width = 160, options.view.height = 90;

@@ -12,55 +12,18 @@ message. Skipped (exit 0) when /usr/bin/blender is missing. About 20 s on 2 core
 
 import argparse
 import os
-import shutil
 import subprocess
 import sys
 
 import matplotlib.image
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from tiny_cache import check, make_cache  # noqa: E402
+
 BLENDER = "/usr/bin/blender"
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "render",
                       "blender_render.py")
-SCENE = """
-[simulation]
-name = "blender-test"
-dimension = 3
-end_time = 0.1
-frame_rate = 10
-gravity = [0.0, -9.81, 0.0]
-
-[grid]
-dx = 0.05
-particles_per_cell = 8
-
-[[material]]
-name = "snow"
-model = "granular"
-density = 300.0
-friction_angle = 30.0
-
-[[terrain]]
-shape = "plane"
-point = [0.0, 0.0, 0.0]
-normal = [0.5, 0.8660254, 0.0]   # 30 degrees, down-slope along +x
-boundary = "slip"
-
-[[body]]
-material = "snow"
-shape = "layer"
-thickness = 0.2
-x_range = [0.0, 0.6]
-z_range = [0.0, 0.4]
-"""
-
-
-def check(condition, what):
-    print(("ok:     " if condition else "FAILED: ") + what)
-    if not condition:
-        sys.exit(1)
-
-
 def blender(*args):
     command = [BLENDER, "-b", "--python", SCRIPT, "--", *args]
     return subprocess.run(command, capture_output=True, text=True)
@@ -87,14 +50,7 @@ def main():
     if not os.path.exists(BLENDER):
         print(f"skipped: blender not installed ({BLENDER} is missing)")
         return
-    shutil.rmtree(args.work, ignore_errors=True)
-    os.makedirs(args.work)
-    scene = os.path.join(args.work, "scene.toml")
-    with open(scene, "w") as f:
-        f.write(SCENE)
-    cache = os.path.join(args.work, "cache")
-    subprocess.run([args.firn, "run", scene, "--out", cache, "--threads", "2", "--quiet"],
-                   check=True)
+    cache = make_cache(args.firn, args.work, "blender-test", 0.1, 10)
     check(os.path.isfile(os.path.join(cache, "terrain.obj")), "firn run wrote terrain.obj")
 
     snow = render(cache, os.path.join(args.work, "snow"))

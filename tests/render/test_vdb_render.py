@@ -13,52 +13,16 @@ whole slab is in view. Under a second on 2 cores.
 import argparse
 import os
 import re
-import shutil
 import subprocess
 import sys
 
 import numpy as np
 import pyopenvdb
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from tiny_cache import check, make_cache  # noqa: E402
+
 VDB_RENDER = "/usr/bin/vdb_render"
-SCENE = """
-[simulation]
-name = "vdb-render-test"
-dimension = 3
-end_time = 0.05
-frame_rate = 20
-gravity = [0.0, -9.81, 0.0]
-
-[grid]
-dx = 0.05
-particles_per_cell = 8
-
-[[material]]
-name = "snow"
-model = "granular"
-density = 300.0
-
-[[terrain]]
-shape = "plane"
-point = [0.0, 0.0, 0.0]
-normal = [0.5, 0.8660254, 0.0]   # 30 degrees, down-slope along +x
-boundary = "slip"
-
-[[body]]
-material = "snow"
-shape = "layer"
-thickness = 0.2
-x_range = [0.0, 0.6]
-z_range = [0.0, 0.4]
-"""
-
-
-def check(condition, what):
-    print(("ok:     " if condition else "FAILED: ") + what)
-    if not condition:
-        sys.exit(1)
-
-
 def read_ppm(path):
     """A binary (P6) PPM with 8-bit samples, as an H x W x 3 uint8 array."""
     with open(path, "rb") as f:
@@ -84,14 +48,7 @@ def main():
     if not os.path.exists(VDB_RENDER):
         print(f"skipped: vdb_render not installed ({VDB_RENDER} is missing)")
         return
-    shutil.rmtree(args.work, ignore_errors=True)
-    os.makedirs(args.work)
-    scene = os.path.join(args.work, "scene.toml")
-    with open(scene, "w") as f:
-        f.write(SCENE)
-    cache = os.path.join(args.work, "cache")
-    subprocess.run([args.firn, "run", scene, "--out", cache, "--threads", "2", "--quiet"],
-                   check=True)
+    cache = make_cache(args.firn, args.work, "vdb-render-test", 0.05, 20)
     volume = os.path.join(cache, "frames", "volume.0001.vdb")
 
     density = pyopenvdb.read(volume, "density")
