@@ -31,6 +31,8 @@ struct Options {
     std::string transfer = "apic";
     std::string model = "elastic";
     double offset = 0.0; // m, moves the block away from the origin (empty space must cost nothing)
+    double domain = 1.0; // > 1: a one-cell marker body stretches the scene's bounds this many
+                         // times the block's per axis (2: a domain 8 times the volume)
 };
 
 std::string blockScene(const Options& o) {
@@ -68,7 +70,18 @@ velocity = [0.5, 0.0, 0.0]
 )",
                   dx, o.transfer.c_str(), o.model.c_str(), o.offset, o.offset, o.offset, o.offset,
                   o.offset, o.offset, o.offset + lx, o.offset + ly, o.offset + lz);
-    return text;
+    std::string scene = text;
+    if (o.domain > 1.0) {
+        // The marker's far corner sets the bounds: domain x the block on every axis.
+        const double fx = o.offset + o.domain * lx, fy = o.offset + o.domain * ly,
+                     fz = o.offset + o.domain * lz;
+        std::snprintf(text, sizeof text,
+                      "[[body]]\nmaterial = \"block\"\nshape = \"box\"\nmin = [%g, %g, %g]\n"
+                      "max = [%g, %g, %g]\n",
+                      fx - dx, fy - dx, fz - dx, fx, fy, fz);
+        scene += text;
+    }
+    return scene;
 }
 
 struct Measurement {
@@ -134,10 +147,12 @@ Options parseOptions(int argc, char** argv) {
             o.model = value();
         else if (a == "--offset")
             o.offset = std::atof(value().c_str());
+        else if (a == "--domain")
+            o.domain = std::atof(value().c_str());
         else {
             std::fprintf(stderr, "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
                                  "[--transfer apic|pic|flip] [--model elastic|snow|granular] "
-                                 "[--offset M]\n");
+                                 "[--offset M] [--domain SCALE]\n");
             std::exit(a == "--help" ? 0 : 1);
         }
     }

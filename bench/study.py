@@ -560,9 +560,10 @@ def slice_study(args, out_dir):
     return rows
 
 
-def run_bench(bench, cells, steps, offset=0.0):
+def run_bench(bench, cells, steps, offset=0.0, domain=1.0):
     out = subprocess.run([bench, "--cells", str(cells), "--steps", str(steps),
-                          "--offset", str(offset)], capture_output=True, text=True, check=True)
+                          "--offset", str(offset), "--domain", str(domain)],
+                         capture_output=True, text=True, check=True)
     line = [l for l in out.stdout.splitlines() if l.startswith("result ")][-1]
     return {k: float(v) for k, v in (kv.split("=") for kv in line.split()[1:])}
 
@@ -571,12 +572,14 @@ def throughput(args, out_dir):
     bench = os.path.join(os.path.dirname(args.firn), "firn_bench")
     rows = []
     for cells in ([10, 20] if args.quick else [10, 15, 20, 30, 45, 60]):
-        for offset in ([0.0, 1000.0] if cells == 20 else [0.0]):
+        # The 20-cell block also 1 km from the origin, and in a domain 8 times its volume.
+        variants = [(0.0, 1.0), (1000.0, 1.0), (0.0, 2.0)] if cells == 20 else [(0.0, 1.0)]
+        for offset, domain in variants:
             steps = int(max(10, min(60, 4e7 / (7400 * (cells / 10) ** 3))))
-            r = run_bench(bench, cells, steps, offset)
-            r.update({"cells": cells, "offset_m": offset, "steps": steps})
+            r = run_bench(bench, cells, steps, offset, domain)
+            r.update({"cells": cells, "offset_m": offset, "domain_scale": domain, "steps": steps})
             rows.append(r)
-            print(f"{int(r['particles']):8d} particles (offset {offset:g} m): "
+            print(f"{int(r['particles']):8d} particles (offset {offset:g} m, domain x{domain:g}): "
                   f"{r['pss1'] / 1e6:.2f} M/s 1 thread, {r['pssN'] / 1e6:.2f} M/s "
                   f"{int(r['threads'])} threads, {r['bytes_per_particle_net']:.0f} B/particle",
                   flush=True)
@@ -591,7 +594,8 @@ def chart_throughput(rows, out_dir):
     except ImportError:
         print("matplotlib missing (Debian: python3-matplotlib): no chart")
         return
-    at0 = sorted((r for r in rows if float(r["offset_m"]) == 0.0), key=lambda r: r["particles"])
+    at0 = sorted((r for r in rows if float(r["offset_m"]) == 0.0 and
+                  float(r.get("domain_scale", 1.0)) == 1.0), key=lambda r: r["particles"])
     n = [r["particles"] for r in at0]
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     axes[0].semilogx(n, [r["pss1"] / 1e6 for r in at0], "o-", label="1 thread")
@@ -746,7 +750,7 @@ def chart_stability(rows, out_dir):
 NUMERIC = {"cfl", "particles_per_cell", "dx", "relative_error", "wall_seconds",
            "particle_steps", "acceleration", "energy_drift", "steps", "particles", "pss1",
            "pssN", "threads", "speedup", "bytes_per_particle", "bytes_per_particle_net", "cells",
-           "offset_m", "value", "reference", "slice_cells", "slice_width"}
+           "offset_m", "domain_scale", "value", "reference", "slice_cells", "slice_width"}
 
 
 def read_rows(path):
