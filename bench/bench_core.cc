@@ -106,11 +106,11 @@ Measurement measure(const SceneDesc& scene, int threads, int steps) {
 
 void printShares(const Measurement& m) {
     const StepTimings& t = m.timings;
-    const double total = t.p2g + t.gridUpdate + t.g2p + t.plasticity + t.sort;
+    const double total = t.p2g + t.gridUpdate + t.g2p + t.plasticity + t.sort + t.sleep;
     std::printf("  time share: P2G %.1f %%, grid update %.1f %%, G2P %.1f %%, plasticity %.1f "
-                "%%, re-bucketing %.1f %%\n",
+                "%%, re-bucketing %.1f %%, sleep pass %.1f %%\n",
                 100 * t.p2g / total, 100 * t.gridUpdate / total, 100 * t.g2p / total,
-                100 * t.plasticity / total, 100 * t.sort / total);
+                100 * t.plasticity / total, 100 * t.sort / total, 100 * t.sleep / total);
 }
 
 /// Resident set size now, from /proc/self/statm.
