@@ -5,6 +5,7 @@
 #include "test_util.h"
 
 #include <catch2/catch.hpp>
+#include <tbb/global_control.h>
 
 using namespace firn;
 
@@ -88,4 +89,21 @@ TEST_CASE("Sleeping changes a settled block by less than a hundredth of a cell",
     // Mean height of the block: the same within 1e-3 m (dx / 100). Sleeping freezes particles
     // slower than 2 cm/s; the elastic settling left at 0.7 s is far below that.
     CHECK(std::abs(sumOn - sumOff) / block < 1e-3);
+}
+
+TEST_CASE("Sleeping and waking give the same state for 1 and 2 threads", "[sleep][determinism]") {
+    auto runWith = [](int threads) {
+        tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+        auto world = blockAndBall(true);
+        test::advanceTo(*world, 1.2); // through sleep (~0.2 s), the impact and the waking
+        return world;
+    };
+    const auto one = runWith(1);
+    const auto two = runWith(2);
+    REQUIRE(one->particles.size() == two->particles.size());
+    CHECK(asleepCount(*one) == asleepCount(*two));
+    for (std::size_t i = 0; i < one->particles.size(); ++i) {
+        REQUIRE(one->particles.x[i] == two->particles.x[i]);
+        REQUIRE(one->particles.v[i] == two->particles.v[i]);
+    }
 }
