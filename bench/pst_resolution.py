@@ -3,10 +3,14 @@
 scenes/pst.toml at several grid spacings, so we know what resolution the answer needs.
 
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--firn build/firn]
+        [--set key=value ...] [--criterion run|onset] [--ac-only] [--out DIR]
 
-For each dx: the critical cut length by bisection on a 3 m column (a cut "runs" when the crack
-reaches the far end within 0.2 s), then the steady crack speed on the full 6 m column. Writes
-bench/results/pst-resolution/results.csv and prints a table. The weak layer stays 0.06 m thick,
+For each dx: the critical cut length by bisection on a 3 m column (criterion "run": the crack
+reaches the far end within 0.2 s; "onset": it grows more than 0.3 m past the cut), then the
+steady crack speed on the full 6 m column (not with --ac-only). --set passes scene overrides
+to every run, e.g. --set material.weak.initial_p0=6900 for the weak-layer variants of the
+README's Snow section. Writes results.csv into bench/results/pst-resolution/ (or --out) and
+prints a table. The weak layer stays 0.06 m thick,
 so it spans 2 to 4 cells over the default spacings; particles per cell stay 4.
 """
 import argparse
@@ -21,10 +25,10 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def run(firn, overrides, out):
+def run(firn, overrides, out, extra=()):
     args = [firn, "run", os.path.join(ROOT, "scenes", "pst.toml"), "--quiet", "--out", out,
             "--set", "output.particles=false", "--set", "output.volumes=[]"]
-    for o in overrides:
+    for o in list(extra) + list(overrides):
         args += ["--set", o]
     start = time.time()
     subprocess.run(args, check=True)
@@ -43,7 +47,7 @@ def tip_reach(out):
     return reach
 
 
-def critical_cut(firn, dx, work, steps=4):
+def critical_cut(firn, dx, work, extra=(), criterion="run", steps=4):
     stays, runs = 0.1, 0.9
     seconds = 0.0
     for i in range(steps):
@@ -51,9 +55,10 @@ def critical_cut(firn, dx, work, steps=4):
         out = os.path.join(work, f"ac-{dx}-{i}")
         _, t = run(firn, [f"grid.dx={dx}", "body.weak.x_range=[0.0, 3.0]",
                           "body.slab.x_range=[0.0, 3.0]", f"cut.weak.length={cut}",
-                          "simulation.end_time=0.2", "simulation.frame_rate=100"], out)
+                          "simulation.end_time=0.2", "simulation.frame_rate=100"], out, extra)
         seconds += t
-        if tip_reach(out) > 2.9:
+        reach = tip_reach(out)
+        if (reach > 2.9) if criterion == "run" else (reach > cut + 0.3):
             runs = cut
         else:
             stays = cut
@@ -64,21 +69,30 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dx", type=float, nargs="+", default=[0.03, 0.02, 0.015])
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
+    parser.add_argument("--set", action="append", default=[], dest="overrides",
+                        help="scene override for every run (repeatable)")
+    parser.add_argument("--criterion", choices=["run", "onset"], default="run")
+    parser.add_argument("--ac-only", action="store_true", help="skip the crack-speed run")
+    parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "pst-resolution"))
     args = parser.parse_args()
-    results_dir = os.path.join(ROOT, "bench", "results", "pst-resolution")
+    results_dir = args.out
     os.makedirs(results_dir, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for dx in args.dx:
-            stays, runs, t_ac = critical_cut(args.firn, dx, work)
-            summary, t_speed = run(args.firn, [f"grid.dx={dx}", "simulation.end_time=0.25"],
-                                   os.path.join(work, f"speed-{dx}"))
-            rows.append({"dx": dx, "cells_in_weak_layer": round(0.06 / dx, 2),
-                         "a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
-                         "steady_crack_speed": round(summary["mean_crack_speed"], 2),
-                         "propagation_distance": round(summary["crack_propagation_distance"], 3),
-                         "particles": summary["particles"],
-                         "wall_seconds_ac": round(t_ac, 1), "wall_seconds_speed": round(t_speed, 1)})
+            stays, runs, t_ac = critical_cut(args.firn, dx, work, args.overrides, args.criterion)
+            row = {"dx": dx, "cells_in_weak_layer": round(0.06 / dx, 2),
+                   "criterion": args.criterion, "overrides": " ".join(args.overrides),
+                   "a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
+                   "wall_seconds_ac": round(t_ac, 1)}
+            if not args.ac_only:
+                summary, t_speed = run(args.firn, [f"grid.dx={dx}", "simulation.end_time=0.25"],
+                                       os.path.join(work, f"speed-{dx}"), args.overrides)
+                row.update({"steady_crack_speed": round(summary["mean_crack_speed"], 2),
+                            "propagation_distance": round(summary["crack_propagation_distance"], 3),
+                            "particles": summary["particles"],
+                            "wall_seconds_speed": round(t_speed, 1)})
+            rows.append(row)
             print(rows[-1], flush=True)
     with open(os.path.join(results_dir, "results.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
