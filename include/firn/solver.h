@@ -14,6 +14,13 @@
 
 namespace firn {
 
+/// The sleep pass's neighbour lists, kept while the particle leaves stay the same (the common
+/// case once snow rests, when the pass would otherwise dominate a step).
+struct SleepNeighbours {
+    std::vector<LeafKey> leaves;                ///< the leaves the lists were built for
+    std::vector<std::vector<std::uint32_t>> of; ///< per leaf, its existing neighbour leaves
+};
+
 struct World {
     int dim = 3;
     float dx = 0.05f;
@@ -33,6 +40,7 @@ struct World {
     ParticleSet particles;
     Grid grid;
     TransferScratch scratch;
+    SleepNeighbours sleepNeighbours;
 
     double time = 0.0; ///< s
     long long steps = 0;

@@ -98,7 +98,11 @@ void updateSleep(World& world, float dt) {
             quiet = slow ? static_cast<std::uint16_t>(std::min<int>(quiet + 1, 65535)) : 0;
         }
     });
-    const auto neighbours = neighbourLeaves(ps);
+    if (world.sleepNeighbours.leaves != ps.leaves) {
+        world.sleepNeighbours.of = neighbourLeaves(ps);
+        world.sleepNeighbours.leaves = ps.leaves;
+    }
+    const auto& neighbours = world.sleepNeighbours.of;
     const std::uint16_t needed = static_cast<std::uint16_t>(std::min(world.sleepSteps, 65535));
     // Decisions read only this step's motion and counters, so they do not depend on the order
     // in which leaves are visited: the same for any thread count.
