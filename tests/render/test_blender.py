@@ -10,7 +10,6 @@ edges (the camera frames the whole deposit). Also checks that bad input exits no
 message. Skipped (exit 0) when /usr/bin/blender is missing. About 20 s on 2 cores.
 """
 
-import argparse
 import os
 import subprocess
 import sys
@@ -19,7 +18,7 @@ import matplotlib.image
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tiny_cache import check, make_cache  # noqa: E402
+from tiny_cache import arguments, check, make_cache  # noqa: E402
 
 BLENDER = "/usr/bin/blender"
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "render",
@@ -43,12 +42,8 @@ def render(cache, out, *extra):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--firn", required=True)
-    parser.add_argument("--work", required=True)
-    args = parser.parse_args()
-    if not os.path.exists(BLENDER):
-        print(f"skipped: blender not installed ({BLENDER} is missing)")
+    args = arguments(BLENDER)
+    if args is None:
         return
     cache = make_cache(args.firn, args.work, "blender-test", 0.1, 10)
     check(os.path.isfile(os.path.join(cache, "terrain.obj")), "firn run wrote terrain.obj")

@@ -10,7 +10,6 @@ lit, a fair share of the image is snow, and the image border is background (blac
 whole slab is in view. Under a second on 2 cores.
 """
 
-import argparse
 import os
 import re
 import subprocess
@@ -20,7 +19,7 @@ import numpy as np
 import pyopenvdb
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from tiny_cache import check, make_cache  # noqa: E402
+from tiny_cache import arguments, check, make_cache  # noqa: E402
 
 VDB_RENDER = "/usr/bin/vdb_render"
 def read_ppm(path):
@@ -41,12 +40,8 @@ def vector_arg(v):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--firn", required=True)
-    parser.add_argument("--work", required=True)
-    args = parser.parse_args()
-    if not os.path.exists(VDB_RENDER):
-        print(f"skipped: vdb_render not installed ({VDB_RENDER} is missing)")
+    args = arguments(VDB_RENDER)
+    if args is None:
         return
     cache = make_cache(args.firn, args.work, "vdb-render-test", 0.05, 20)
     volume = os.path.join(cache, "frames", "volume.0001.vdb")

@@ -2,6 +2,7 @@
 on a 30 degree slip plane, down-slope along +x) made by `firn run`, and a check that prints
 what it checked and stops at the first failure."""
 
+import argparse
 import os
 import shutil
 import subprocess
@@ -44,6 +45,19 @@ def check(condition, what):
     print(("ok:     " if condition else "FAILED: ") + what)
     if not condition:
         sys.exit(1)
+
+
+def arguments(tool):
+    """The --firn and --work options of a render test, or None (after a "skipped" line) when the
+    third-party `tool` it drives is not installed."""
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--firn", required=True)
+    parser.add_argument("--work", required=True)
+    args = parser.parse_args()
+    if not os.path.exists(tool):
+        print(f"skipped: {os.path.basename(tool)} not installed ({tool} is missing)")
+        return None
+    return args
 
 
 def make_cache(firn, work, name, end_time, frame_rate):
