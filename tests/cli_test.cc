@@ -4,6 +4,8 @@
 // its output folder after finishing, blowing up, being interrupted or failing to write.
 #include "test_util.h"
 
+#include <firn_test_paths.h>
+
 #include <catch2/catch.hpp>
 
 #include <fcntl.h>

@@ -6,6 +6,8 @@
 #include "cli/render_command.h"
 #include "test_util.h"
 
+#include <firn_test_paths.h>
+
 #include <catch2/catch.hpp>
 
 #include <algorithm>

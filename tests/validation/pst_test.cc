@@ -2,6 +2,8 @@
 // (scenes/pst.toml, shortened to a 3 m column where only onset matters).
 #include "test_util.h"
 
+#include <firn_test_paths.h>
+
 #include <firn/diagnostics.h>
 #include <firn/run.h>
 
