@@ -4,6 +4,7 @@
 // Loading paths are coaxial (fixed principal axes), so the elastic log strain after a step is
 // simply eps_elastic + d_eps: the trial strain of the next return mapping.
 #include <firn/material.h>
+#include <firn/svd.h>
 
 #include <catch2/catch.hpp>
 
@@ -260,15 +261,30 @@ TEST_CASE("Cam-Clay: shear at constant p yields at q_y(p)", "[material][camclay]
             // Just inside: elastic.
             const Vec3f inside = strainFor(m, p, 0.99f * qy, deviatoricDirection(dim));
             CHECK(returnMapCamClay(m, inside, s0).state.flags == 0u);
-            // Outside: p kept, q brought to q_y, no plastic volume change, flagged. Tolerances
-            // 1e-5 p0: float round-off of strains ~p0/K rebuilt from (p, q).
-            const Vec3f trial = strainFor(m, p, 1.5f * qy + 0.1f * p0, deviatoricDirection(dim));
+            // Outside: p kept, q brought to q_y, flagged. Tolerances 1e-5 p0: float round-off of
+            // strains ~p0/K rebuilt from (p, q).
+            const float qTrial = 1.5f * qy + 0.1f * p0;
+            const Vec3f trial = strainFor(m, p, qTrial, deviatoricDirection(dim));
             const ReturnMapResult r = returnMapCamClay(m, trial, s0);
             const StressInvariants inv = invariantsOf(m, r.eps);
             CHECK(std::abs(inv.p - p) <= 1e-5f * p0);
             CHECK(std::abs(inv.q - qy) <= 1e-5f * p0);
-            CHECK(r.state.hardening == s0.hardening);
-            CHECK(r.state.epsV == 0.f);
+            // The hardening variable moves by the ray-to-centre increment (snow-model.md), here
+            // from the closed form p_x of the spec: d eps_V^P = (p_x - p_trial) / K.
+            const float pc = 0.5f * (1.f - beta) * p0;
+            const float dp = p - pc, norm = std::hypot(dp, qTrial);
+            const float dpUnit = dp / norm, dqUnit = qTrial / norm;
+            const float px = pc + dpUnit * M * (1.f + beta) * p0 /
+                                      (2.f * std::sqrt((1.f + 2.f * beta) * dqUnit * dqUnit +
+                                                       M * M * dpUnit * dpUnit));
+            const float dEps = (px - p) / bulk(m);
+            // The increment is ~p0/K ~ 1e-2; its float error ~1e-7 of the hardening variable.
+            CHECK(r.state.epsV == Approx(dEps).margin(1e-6 * std::abs(s0.hardening)));
+            CHECK(r.state.hardening - s0.hardening ==
+                  Approx(dEps).margin(1e-6 * std::abs(s0.hardening)));
+            // Tension side of the centre dilates (softens), compression side compacts (hardens).
+            if (dp < -0.01f * p0) CHECK(dEps > 0.f);
+            if (dp > 0.01f * p0) CHECK(dEps < 0.f);
             CHECK(r.state.flags == kFlagFailed);
             // Still the same deviatoric direction.
             const Vec3f dev = strainFor(m, 0.f, 1.f, deviatoricDirection(dim));
@@ -466,6 +482,157 @@ TEST_CASE("Cam-Clay: tension softens p0 to zero", "[material][camclay]") {
 // ---------------------------------------------------------------------------------------------
 // Weak layer: softening with the anticrack strain (eqs. 3-4), then eq. (5).
 
+namespace {
+
+/// The PST weak layer of validation.md V6 / scenes/pst.toml: G 0.2 MPa (E 0.48 MPa, nu 0.2),
+/// p0 3.45 kPa, beta 0.1, M 1 (shear strength 1 kPa), xi 0.015, alpha 100.
+Material pstWeakLayer(int dim) {
+    MaterialDesc desc;
+    desc.model = MaterialModel::WeakLayer;
+    desc.density = 100.0;
+    desc.youngsModulus = 4.8e5;
+    desc.poissonRatio = 0.2;
+    desc.criticalStateSlope = 1.0;
+    desc.cohesionRatio = 0.1;
+    desc.initialP0 = 3450.0;
+    desc.hardening = 0.015;
+    desc.softening = 100.0;
+    desc.dynamicCriticalStateSlope = 1.2;
+    return Material::fromDesc(desc, dim);
+}
+
+/// One material point driven like a particle (F -> SVD -> log strain -> return mapping), in
+/// simple shear (shear strain increments in the x-y plane) at a fixed normal stress
+/// tau_yy = -sigmaN, held by a secant iteration on the normal stretch of each increment. x and
+/// (in 3D) z are held fixed: a layer confined laterally, as a weak layer under a slab.
+struct SimpleShearPoint {
+    const Material& m;
+    Eigen::Matrix3f F = Eigen::Matrix3f::Identity();
+    PlasticState state;
+    Eigen::Matrix3f tau = Eigen::Matrix3f::Zero();
+
+    /// Trial F, return mapping and stress for a shear increment dGamma and normal strain dN.
+    void evaluate(float dGamma, float dN, Eigen::Matrix3f& Fout, PlasticState& sOut,
+                  Eigen::Matrix3f& tauOut) const {
+        Eigen::Matrix3f L = Eigen::Matrix3f::Zero();
+        L(0, 1) = dGamma;
+        L(1, 1) = dN;
+        const Eigen::Matrix3f Ftrial = (Eigen::Matrix3f::Identity() + L) * F;
+        const LeftStretch ls = leftStretch(Ftrial, m.dim);
+        Vec3f eps = Vec3f::Zero();
+        for (int a = 0; a < m.dim; ++a) eps[a] = std::log(ls.sigma[a]);
+        const ReturnMapResult r = returnMap(m, eps, state);
+        Vec3f scale = Vec3f::Ones();
+        for (int a = 0; a < m.dim; ++a) scale[a] = std::exp(r.eps[a]) / ls.sigma[a];
+        Fout = ls.U * scale.asDiagonal() * ls.U.transpose() * Ftrial;
+        sOut = r.state;
+        tauOut = ls.U * kirchhoffPrincipal(m.lame, r.eps, m.dim).asDiagonal() * ls.U.transpose();
+    }
+
+    /// Applies dGamma with the normal stress held at -sigmaN (to 1e-4 sigmaN).
+    void shear(float dGamma, float sigmaN) {
+        Eigen::Matrix3f Fn, tn;
+        PlasticState sn;
+        const float stiffness = m.lame.lambda + 2.f * m.lame.mu; // oedometric, first guess
+        float dN = 0.f;
+        for (int it = 0; it < 60; ++it) {
+            evaluate(dGamma, dN, Fn, sn, tn);
+            const float residual = tn(1, 1) + sigmaN;
+            if (std::abs(residual) <= 1e-4f * sigmaN) break;
+            dN -= residual / stiffness;
+        }
+        F = Fn, state = sn, tau = tn;
+    }
+};
+
+} // namespace
+
+TEST_CASE("Weak layer in simple shear at 1 kPa normal stress softens to collapse (mixed mode)",
+          "[material][weaklayer]") {
+    // validation.md V6: sigma_n = 1 kPa under p0 = 3.45 kPa, beta 0.1, M 1. The confined
+    // point sits at p ~ 0.6 kPa, below the centre p_c = 1.55 kPa, so shear yield dilates by the
+    // ray-to-centre increment, eta grows by alpha |d eps_V^P| (eq. 4) and p0 falls (eq. 3) until
+    // it reaches 0: collapse, eq. (5). Expected: collapse at a shear strain of the order of
+    // the elastic one at yield (tau_p / G = 0.5 %), well before 5 %.
+    for (int dim : {2, 3}) {
+        INFO("dim = " << dim);
+        const Material m = pstWeakLayer(dim);
+        SimpleShearPoint point{m};
+        point.state = m.initialState();
+        const float K = m.lame.bulkModulus(dim), p0Start = p0Of(m, point.state);
+        REQUIRE(p0Start == Approx(3450.f).epsilon(1e-5));
+        float gamma = 0.f, peakShear = 0.f, gammaCollapse = -1.f;
+        float p0Previous = p0Start;
+        bool monotone = true;
+        for (int k = 0; k < 500 && gammaCollapse < 0.f; ++k) {
+            point.shear(1e-4f, 1000.f);
+            gamma += 1e-4f;
+            peakShear = std::max(peakShear, point.tau(0, 1));
+            const float p0 = (point.state.flags & kFlagCollapsed)
+                                 ? 0.f
+                                 : camClayP0(K, m.camClay.xi, point.state.hardening);
+            monotone = monotone && p0 <= p0Previous;
+            p0Previous = p0;
+            if (point.state.flags & kFlagCollapsed) gammaCollapse = gamma;
+        }
+        INFO("peak shear stress " << peakShear << " Pa, collapse at gamma = " << gammaCollapse);
+        CHECK(monotone); // p0 only ever falls: softening, never hardening
+        REQUIRE(gammaCollapse > 0.f);
+        CHECK(gammaCollapse < 0.05f);
+        // The shear peak is below the ellipse's q_max / sqrt(3) = tau_p = 1 kPa (the point
+        // yields at p below p_c), and above half of it.
+        CHECK(peakShear < 1000.f);
+        CHECK(peakShear > 500.f);
+        // After collapse the layer carries the normal load by friction and compaction (eq. 5):
+        // the normal stress is held, and the shear stress is at most M_d-frictional.
+        for (int k = 0; k < 50; ++k) point.shear(1e-4f, 1000.f);
+        CHECK(point.tau(1, 1) == Approx(-1000.f).epsilon(1e-3));
+        CHECK(point.state.eta == Approx(-m.initialState().hardening).epsilon(1e-6));
+    }
+}
+
+TEST_CASE("Cam-Clay shear: above the centre p0 stays, below it softens, above it hardens",
+          "[material][camclay][weaklayer]") {
+    // snow-model.md, hardening increment: sheared repeatedly at constant p (each increment
+    // pushes q past the surface again), a point at p_c keeps p0 (the ray is vertical), a slab
+    // point below p_c softens (p0 falls), above p_c hardens (p0 rises); the weak layer keeps
+    // p0 at p_c and softens on either side (|d eps_V^P|, eq. 4).
+    for (int dim : {2, 3})
+        for (const MaterialModel model : {MaterialModel::Snow, MaterialModel::WeakLayer}) {
+            const Material m = model == MaterialModel::Snow
+                                   ? defaultMaterial(MaterialModel::Snow, dim)
+                                   : pstWeakLayer(dim);
+            const float M = m.camClay.M, beta = m.camClay.beta;
+            for (const float side : {-0.5f, 0.f, 0.5f}) {
+                INFO("dim " << dim << ", model " << int(model) << ", p = p_c + " << side
+                            << " (p0 (1 + beta) / 2)");
+                PlasticState s = m.initialState();
+                const float p0Start = p0Of(m, s);
+                for (int k = 0; k < 20; ++k) {
+                    const float p0 = p0Of(m, s);
+                    const float pc = 0.5f * (1.f - beta) * p0;
+                    const float p = pc + side * 0.5f * (1.f + beta) * p0;
+                    const float qTrial = 1.2f * yieldQ(p, p0, M, beta);
+                    s = returnMap(m, strainFor(m, p, qTrial, deviatoricDirection(dim)), s).state;
+                    if (s.flags & kFlagCollapsed) break;
+                }
+                const float p0End = (s.flags & kFlagCollapsed) ? 0.f : p0Of(m, s);
+                INFO("p0 " << p0Start << " -> " << p0End);
+                CHECK(s.flags & kFlagFailed);
+                if (side == 0.f) {
+                    // Directly above the centre: no increment (float round-off of p - p_c ~
+                    // 1e-7 p0 moves p0 by ~1e-7 relative per step).
+                    CHECK(p0End == Approx(p0Start).epsilon(1e-5));
+                    CHECK(s.eta == Approx(0.f).margin(1e-6));
+                } else if (model == MaterialModel::WeakLayer || side < 0.f) {
+                    CHECK(p0End < 0.9f * p0Start);
+                } else {
+                    CHECK(p0End > 1.01f * p0Start);
+                }
+            }
+        }
+}
+
 TEST_CASE("Weak layer: compression softens to collapse, then compacts frictionally",
           "[material][weaklayer]") {
     // Under strain control the softening branch has slope dp/d(tr eps) ~ K (1 - 1/(alpha xi))
@@ -577,11 +744,13 @@ TEST_CASE("Weak layer: elastic inside, failed flag and eta on first yield",
         CHECK(r0.eps == inside);
         CHECK(r0.state.flags == 0u);
         CHECK(r0.state.eta == 0.f);
-        // Shear yield at constant p: flagged, but no volume change so no softening (eq. 4).
+        // Shear yield at constant p off the centre (p_c = 0.35 p0 for beta 0.3): flagged and
+        // softened by the ray-to-centre increment, eq. (4) (mixed mode).
         const Vec3f shear = strainFor(m, 0.5f * p0, 2.f * p0, deviatoricDirection(dim));
         const ReturnMapResult r1 = returnMapWeakLayer(m, shear, s0);
         CHECK(r1.state.flags == kFlagFailed);
-        CHECK(r1.state.eta == 0.f);
+        CHECK(r1.state.eta > 0.f);
+        CHECK(p0Of(m, r1.state) < p0);
         // Tension past the tip also softens: any plastic volume change, eq. (4). (Not too far
         // past: a plastic volume change above |eta0| / alpha collapses the layer in one step.)
         const Vec3f tension = strainFor(m, -0.35f * p0, 0.f, deviatoricDirection(dim));

@@ -29,8 +29,10 @@ struct PlasticState {
     /// that gives p0 = initial_p0). Weak layer: eta while cohesive, then eps_V^P counted from
     /// the moment of full softening. Granular and elastic: unused.
     float hardening = 0.f;
-    float epsV = 0.f; ///< plastic volumetric strain since t = 0 (output `eps_v`)
-    float eta = 0.f;  ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
+    /// eps_V^P accumulated since t = 0 from the hardening increments of snow-model.md (output
+    /// `eps_v`; between the tips this is the ray-to-centre increment, not a volume change)
+    float epsV = 0.f;
+    float eta = 0.f; ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
     std::uint32_t flags = 0;
 };
 constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once

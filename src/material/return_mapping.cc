@@ -7,13 +7,14 @@
 // plastic volume change is the change of tr(eps) = log det Fe.
 //
 // Hardening form (validation.md V6): the paper's eq. (2), p0 = K sinh(xi max(-eps_V^P, 0)), with
-// eps_V^P the accumulated plastic change of log det Fe; eq. (3) with the anticrack strain eta for
-// the weak layer until p0 reaches 0. The update is explicit, as in the authors' MPM codes: the
-// trial state is projected onto the surface of the state at the start of the step, then the
-// hardening variable is updated. So after a tip projection the state sits on the old surface,
-// and where softening outruns elasticity (beta xi > 1 in tension, alpha xi > 1 for the weak
-// layer in compression: a snap-back) the surface shrinks over a few steps even at fixed strain.
-// That is the brittle failure the model is meant to produce, resolved step by step.
+// eps_V^P accumulated from the hardening increments of snow-model.md (beyond a tip the plastic
+// change of log det Fe; between the tips the ray-to-centre increment); eq. (3) with the
+// anticrack strain eta for the weak layer until p0 reaches 0. The update is explicit, as in the
+// authors' MPM codes: the trial state is projected onto the surface of the state at the start of
+// the step, then the hardening variable is updated. So after a tip projection the state sits on the
+// old surface, and where softening outruns elasticity (beta xi > 1 in tension, alpha xi > 1 for the
+// weak layer in compression: a snap-back) the surface shrinks over a few steps even at fixed
+// strain. That is the brittle failure the model is meant to produce, resolved step by step.
 #include <firn/material.h>
 
 #include <algorithm>
@@ -35,7 +36,9 @@ struct CamClaySurface {
 /// Result of a projection in strain space, before any hardening is applied.
 struct Projection {
     Vec3f eps;
-    float dVolume = 0.f; ///< plastic volume change tr(eps_trial) - tr(eps_new), d eps_V^P
+    /// d eps_V^P, negative in compaction: beyond a tip the real plastic volume change
+    /// tr(eps_trial) - tr(eps_new); between the tips the ray-to-centre increment.
+    float dVolume = 0.f;
     bool yielded = false;
 };
 
@@ -67,6 +70,26 @@ Vec3f replaceActive(const Vec3f& eps, const Vec3f& active, int dim) {
     return eps.cwiseProduct(Vec3f::Ones() - mask) + active.cwiseProduct(mask);
 }
 
+/// The hardening increment of a projection between the tips (snow-model.md, "Hardening
+/// increment"; the "fake p" hardening of the authors' code line: PhysBAM's Cam-Clay, Wolper et
+/// al. 2019, Ziran's NonAssociativeCamClay). The stress goes to constant p, but the hardening
+/// variable moves as if the state had gone along the ray from the trial point (p, q) to the
+/// ellipse centre (p_c, 0), p_c = (1 - beta) p0 / 2. That ray meets eq. (1) at
+///   p_x = p_c + d_p M (1 + beta) p0 / (2 sqrt((1 + 2 beta) d_q^2 + M^2 d_p^2)),
+/// (d_p, d_q) the direction from the centre to the trial point (any length: the root is
+/// homogeneous in it), and since p = -K tr(eps), d eps_V^P = (p_x - p) / K. Shear on the tension
+/// side of the centre dilates (> 0, softens), on the compression side compacts (< 0, hardens),
+/// directly above it changes nothing. Without this, shear yield is perfectly plastic and a weak
+/// layer cannot fail in shear (the "mixed mode" of Gaume et al. 2019, sec. 3.1).
+float rayToCentreVolumeChange(float K, const CamClaySurface& s, float p, float q) {
+    const float pCentre = 0.5f * (1.f - s.beta) * s.p0;
+    const float dp = p - pCentre, dq = q;
+    const float norm = std::sqrt((1.f + 2.f * s.beta) * dq * dq + s.M * s.M * dp * dp);
+    if (!(norm > 0.f)) return 0.f; // the trial sits on the centre: no direction, no change
+    const float pOnSurface = pCentre + dp * s.M * (1.f + s.beta) * s.p0 / (2.f * norm);
+    return (pOnSurface - p) / K;
+}
+
 /// The non-associative Cam-Clay projection of snow-model.md (Wolper et al. 2019, Gaume et al.
 /// 2018a): beyond a tip -> that tip; otherwise scale q onto the surface at constant p. Nothing
 /// divides by p0, so the degenerate surface p0 = 0 (a point at the origin) stays finite: every
@@ -94,13 +117,14 @@ Projection projectCamClay(const Lame& lame, int dim, const CamClaySurface& s, co
         out.dVolume = tr + pTip / K; // tr(eps_trial) - tr(eps_tip), since tr(eps_tip) = -pTip/K
         return out;
     }
-    // Between the tips: keep p (so no plastic volume change) and bring q down to the surface,
+    // Between the tips: keep p and bring q down to the surface,
     // q_y = M sqrt((p + beta p0)(p0 - p) / (1 + 2 beta)), the root of eq. (1) at this p.
     // max(., 0) absorbs round-off right at a tip; q > 0 here unless round-off put a state with
     // q = 0 an ulp outside, and then the deviator is simply zero.
     const float qYieldSq = std::max((p + s.beta * s.p0) * (s.p0 - p), 0.f) / (1.f + 2.f * s.beta);
     const float scale = q > 0.f ? s.M * std::sqrt(qYieldSq) / q : 0.f;
     out.eps = replaceActive(eps, split.dev * scale + Vec3f::Constant(tr / float(dim)), dim);
+    out.dVolume = rayToCentreVolumeChange(K, s, p, q);
     return out;
 }
 
@@ -120,7 +144,8 @@ PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alp
     if (!pr.yielded) return state;
     state.flags |= kFlagFailed;
     state.epsV += pr.dVolume;
-    // eq. (4), Gaume et al. 2019: d eta = alpha |d eps_V^P| (shear at constant p adds nothing)
+    // eq. (4), Gaume et al. 2019: d eta = alpha |d eps_V^P|, with the ray-to-centre increment
+    // in shear: the layer softens in shear and in compression (mixed mode)
     const float eta = std::min(state.hardening + alpha * std::abs(pr.dVolume), 0.f);
     state.eta += eta - state.hardening; // eta - eta0, capped at -eta0 when p0 hits 0
     state.hardening = eta;
