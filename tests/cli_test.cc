@@ -597,13 +597,14 @@ TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame"
         CHECK(p.out.empty());
         CHECK(p.err.find('\r') == std::string::npos); // stderr is a file, not a TTY
         const std::vector<std::string> lines = split(p.err, '\n');
-        REQUIRE(lines.size() == 4);
+        REQUIRE(lines.size() == 5);
+        CHECK(lines[0].rfind("settled under gravity in ", 0) == 0);
         for (int k = 1; k <= 3; ++k) {
-            INFO(lines[k - 1]);
-            CHECK(lines[k - 1].rfind("frame " + std::to_string(k) + "/3 ", 0) == 0);
+            INFO(lines[k]);
+            CHECK(lines[k].rfind("frame " + std::to_string(k) + "/3 ", 0) == 0);
         }
-        CHECK(lines[3].rfind("firn: 4 frames, ", 0) == 0);
-        CHECK(lines[3].find(out1) != std::string::npos);
+        CHECK(lines[4].rfind("firn: 4 frames, ", 0) == 0);
+        CHECK(lines[4].find(out1) != std::string::npos);
 
         // The thread count does not change the results: same metrics but the wall clock.
         const auto rows1 = checkMetrics(out1 + "/metrics.csv", 4);

@@ -557,8 +557,8 @@ TEST_CASE("Weak layer in simple shear at 1 kPa normal stress softens to collapse
     for (int dim : {2, 3}) {
         INFO("dim = " << dim);
         const Material m = pstWeakLayer(dim);
-        SimpleShearPoint point{m};
-        point.state = m.initialState();
+        SimpleShearPoint point{m, Eigen::Matrix3f::Identity(), m.initialState(),
+                               Eigen::Matrix3f::Zero()};
         const float K = m.lame.bulkModulus(dim), p0Start = p0Of(m, point.state);
         REQUIRE(p0Start == Approx(3450.f).epsilon(1e-5));
         float gamma = 0.f, peakShear = 0.f, gammaCollapse = -1.f;

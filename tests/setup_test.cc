@@ -31,7 +31,8 @@ double aboveSlope(const Vec3f& p) {
 } // namespace
 
 TEST_CASE("layers are draped normal to the terrain and stacked", "[setup]") {
-    auto world = buildWorld(test::sceneFromText(layerScene("")));
+    // As seeded (settling moves the particles by the layers' elastic compression).
+    auto world = buildWorld(test::sceneFromText(layerScene("")), BuildStage::Seeded);
     const ParticleSet& ps = world->particles;
     REQUIRE(world->particlesPerBody.size() == 2);
     double lo[2] = {1e9, 1e9}, hi[2] = {-1e9, -1e9};
@@ -59,8 +60,9 @@ TEST_CASE("layers are draped normal to the terrain and stacked", "[setup]") {
 }
 
 TEST_CASE("a saw cut removes the weak layer over its length only", "[setup]") {
-    auto world = buildWorld(test::sceneFromText(
-        layerScene("", "[[cut]]\nlayer = \"weak\"\nfrom_x = 10.0\nlength = 2.5\n")));
+    auto world = buildWorld(test::sceneFromText(layerScene(
+                                "", "[[cut]]\nlayer = \"weak\"\nfrom_x = 10.0\nlength = 2.5\n")),
+                            BuildStage::Seeded);
     const ParticleSet& ps = world->particles;
     std::size_t weakInCut = 0, slabInCut = 0;
     for (std::size_t i = 0; i < ps.size(); ++i) {

@@ -30,6 +30,13 @@ public:
     Vec3f applyBoundary(const Vec3f& v, const Vec3f& n) const;
 
     Boundary boundary() const { return mBoundary; }
+    /// The same collider with another boundary condition (the settling stage holds frictional
+    /// contacts sticky).
+    Collider withBoundary(Boundary boundary) const {
+        Collider c = *this;
+        c.mBoundary = boundary;
+        return c;
+    }
 
 private:
     TerrainShape mShape = TerrainShape::Plane;

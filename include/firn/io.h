@@ -88,6 +88,7 @@ public:
     void set(const std::string& key, int value) { set(key, static_cast<long long>(value)); }
     void set(const std::string& key, const std::string& value);
     void set(const std::string& key, const char* value) { set(key, std::string(value)); }
+    void setBool(const std::string& key, bool value);
     void setNull(const std::string& key);
     std::string str() const;
 

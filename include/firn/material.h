@@ -40,6 +40,11 @@ constexpr std::uint32_t kFlagCollapsed = 2u; ///< weak layer fully softened (p0 
 /// Asleep (solver sleeping): v = 0 and the C slot holds the frozen Kirchhoff stress, since an
 /// asleep particle has no velocity gradient and its stress array is scratch for re-bucketing.
 constexpr std::uint32_t kFlagAsleep = 4u;
+/// Seeding marks, cleared before t = 0: inside a saw cut (removed once the scene has settled,
+/// as a saw cuts a snowpack at rest), and of a body that does not rest (seeded with a velocity,
+/// or in the air: kept out of the settling stage and put back as seeded at t = 0).
+constexpr std::uint32_t kFlagInCut = 8u;
+constexpr std::uint32_t kFlagOutsideSettling = 16u;
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
 struct CamClayParams {

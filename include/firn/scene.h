@@ -32,6 +32,12 @@ struct SimulationDesc {
     /// s: gravity grows linearly from 0 to full over this time, so that bodies seeded without
     /// stress settle quasi-statically instead of bouncing (0: full gravity from the start).
     double gravityRamp = 0.0;
+    /// Start at rest: before t = 0 the scene settles under full gravity into static
+    /// equilibrium (elastically, frictional contacts held, kinetic damping; src/settle). On by
+    /// default; off when gravity_ramp is given (the two are alternative ways to start).
+    bool settle = true;
+    double settleMaxTime = 2.0;    ///< s of simulated settling at most
+    double settleTolerance = 1e-6; ///< settled when a kinetic-energy peak < this x elastic energy
 };
 
 /// [grid]
@@ -127,7 +133,7 @@ struct RenderDesc {
     /// Colour-map range; both NaN = automatic (0 to the largest value over the frames).
     std::array<double, 2> colorRange = {std::numeric_limits<double>::quiet_NaN(),
                                         std::numeric_limits<double>::quiet_NaN()};
-    bool autoCamera = true; ///< false once camera_position and look_at are given
+    bool autoCamera = true;                 ///< false once camera_position and look_at are given
     Vec3d cameraPosition = {0.0, 0.0, 0.0}; ///< m
     Vec3d lookAt = {0.0, 0.0, 0.0};         ///< m
     double fovDeg = 40.0;                   ///< vertical field of view, degrees

@@ -7,6 +7,7 @@
 #include <firn/material.h>
 #include <firn/particles.h>
 #include <firn/scene.h>
+#include <firn/settle.h>
 #include <firn/transfer.h>
 
 #include <memory>
@@ -46,11 +47,20 @@ struct World {
     long long steps = 0;
     float maxSpeed = 0.f;     ///< largest particle speed after the last step, m/s
     float maxWaveSpeed = 0.f; ///< largest P-wave speed over the materials in use, m/s
+    SettleReport settle;      ///< how the scene came to rest before t = 0
 };
 
+/// How far buildWorld goes: to t = 0 as the scene asks (settled when simulation.settle), or
+/// only seeded (firn check: the particle counts without the cost of settling).
+enum class BuildStage { Seeded, Settled };
+
 /// Builds materials, colliders and seeds particles from the scene's bodies (deterministic from
-/// simulation.seed). Throws SceneError for what the scene asks and cannot be built.
-std::unique_ptr<World> buildWorld(const SceneDesc& scene);
+/// simulation.seed); with BuildStage::Settled and simulation.settle, settles the resting bodies
+/// under gravity (settleUnderGravity; bodies seeded with a velocity join afterwards), then
+/// applies the saw cuts; `interrupted` (polled while settling) can end settling early. Throws
+/// SceneError for what the scene asks and cannot be built.
+std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage = BuildStage::Settled,
+                                  const std::function<bool()>& interrupted = {});
 
 /// dt = min(max_dt, cfl dx / (max speed + elastic wave speed)).
 double stableTimeStep(const World& world);

@@ -202,6 +202,16 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     for (const Vec3f& x : w.particles.x) runout = std::max(runout, double(x[0]));
     j.set("runout_x", runout);
     j.set("alpha_angle_deg", alphaAngleDeg(s.first, w));
+    const SettleReport& settle = w.settle;
+    j.setBool("settle", settle.ran);
+    if (settle.ran) {
+        j.setBool("settle_converged", settle.converged);
+        j.set("settle_time", settle.time);
+        j.set("settle_steps", settle.steps);
+        j.set("settle_wall_seconds", settle.wallSeconds);
+        j.set("settle_overloaded_particles", static_cast<long long>(settle.overloaded));
+        if (!settle.message.empty()) j.set("settle_message", settle.message);
+    }
     j.set("status", r.status);
     if (!r.message.empty()) j.set("message", r.message);
     writeFileAtomic(r.outDir + "/summary.json", j.str());
@@ -231,7 +241,13 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     removeOldFrames(result.outDir + "/frames");
     writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
 
-    std::unique_ptr<World> world = buildWorld(scene);
+    std::unique_ptr<World> world =
+        buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
+    if (world->settle.ran && !options.quiet)
+        std::fprintf(
+            stderr, "settled under gravity in %.3g s (%lld steps, %.1f s wall)%s%s\n",
+            world->settle.time, world->settle.steps, world->settle.wallSeconds,
+            world->settle.message.empty() ? "" : ": warning: ", world->settle.message.c_str());
     exportTerrain(scene, world->colliders, result.outDir); // terrain.obj, terrain.vdb
     RunState s(scene, *world, result.outDir);
     const int frames =
@@ -279,7 +295,7 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
 }
 
 std::string describeScene(const SceneDesc& scene) {
-    std::unique_ptr<World> world = buildWorld(scene);
+    std::unique_ptr<World> world = buildWorld(scene, BuildStage::Seeded);
     std::ostringstream out;
     out << "scene " << scene.path << ": \"" << scene.simulation.name << "\", "
         << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
@@ -296,6 +312,14 @@ std::string describeScene(const SceneDesc& scene) {
         << "  end time " << scene.simulation.endTime << " s: about "
         << std::llround(scene.simulation.endTime / dt) << " steps (at rest; more as it speeds up), "
         << std::lround(scene.simulation.endTime * scene.simulation.frameRate) + 1 << " frames\n"
+        << "  start: "
+        << (scene.simulation.settle
+                ? "settles under gravity before t = 0 (at most " +
+                      std::to_string(scene.simulation.settleMaxTime) + " s of settling)"
+            : scene.simulation.gravityRamp > 0
+                ? "gravity ramped over " + std::to_string(scene.simulation.gravityRamp) + " s"
+                : "as seeded, full gravity at t = 0")
+        << "\n"
         << "  output: " << scene.output.directory << "\n";
     return out.str();
 }

@@ -205,6 +205,10 @@ void JsonObject::set(const std::string& key, const std::string& value) {
     upsert(mItems, key, jsonString(value));
 }
 
+void JsonObject::setBool(const std::string& key, bool value) {
+    upsert(mItems, key, value ? "true" : "false");
+}
+
 void JsonObject::setNull(const std::string& key) {
     upsert(mItems, key, "null");
 }

@@ -131,7 +131,16 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     r.real("frame_rate", sim.frameRate, Range::positive());
     r.vector("gravity", sim.gravity);
     r.integer("seed", sim.seed, Range::nonNegative());
-    r.real("gravity_ramp", sim.gravityRamp, Range::nonNegative());
+    const bool ramp = r.real("gravity_ramp", sim.gravityRamp, Range::nonNegative());
+    const bool settleGiven = r.boolean("settle", sim.settle);
+    if (ramp && sim.gravityRamp > 0.0) {
+        if (settleGiven && sim.settle)
+            r.failAt("settle", "settle = true and gravity_ramp > 0 are two ways to start a scene "
+                               "at rest; give one of them");
+        sim.settle = false;
+    }
+    r.real("settle_max_time", sim.settleMaxTime, Range::positive());
+    r.real("settle_tolerance", sim.settleTolerance, Range::positive());
     r.finish();
 }
 
@@ -398,7 +407,8 @@ void absoluteTerrainFiles(toml::table& root, const SceneDesc& desc) {
         toml::table* terrain = (*terrains)[i].as_table();
         if (terrain && terrain->contains("file")) {
             terrain->insert_or_assign(
-                "file", std::filesystem::absolute(desc.terrains[i].file).lexically_normal().string());
+                "file",
+                std::filesystem::absolute(desc.terrains[i].file).lexically_normal().string());
         }
     }
 }
@@ -436,7 +446,9 @@ SceneDesc loadScene(const std::string& path, const std::vector<std::string>& ove
     return parseScene(text.str(), path, overrides);
 }
 
-const char* toString(ColorBy colorBy) { return scene::nameOf(colorBy, scene::kColorBy); }
+const char* toString(ColorBy colorBy) {
+    return scene::nameOf(colorBy, scene::kColorBy);
+}
 
 bool parseColorBy(const std::string& word, ColorBy& out) {
     for (const auto& n : scene::kColorBy) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <unordered_set>
 
 namespace firn {
 
@@ -164,10 +165,11 @@ bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
 /// Seeds particles_per_cell particles in every cell of the body's bounding box: stratified on a
 /// k^d sub-lattice when particles_per_cell = k^d, uniformly random in the cell otherwise, with
 /// positions jittered by `jitter` of a sub-cell.
-/// Visits every seed position of every body, in body order: emit(position, body index).
+/// Visits every seed position of every body, in body order: emit(position, body index, in a
+/// cut).
 /// particles_per_cell per cell of the body's bounding box, stratified on a k^d sub-lattice when
 /// particles_per_cell = k^d (jittered by `jitter` of a sub-cell), uniformly random in the cell
-/// otherwise; seeds inside an earlier body or a cut are skipped.
+/// otherwise; seeds inside an earlier body are skipped.
 template <typename Emit>
 void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders, Emit&& emit) {
     const int dim = scene.simulation.dimension;
@@ -206,37 +208,93 @@ void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders,
                             const float f = lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k : u;
                             p[a] = float((double(cell[a]) + f) * dx);
                         }
-                        if (!region.inside(p) || insideCut(scene, body, p)) continue;
+                        if (!region.inside(p)) continue;
                         bool taken = false;
                         for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
                             taken = regions[e].inside(p);
-                        if (!taken) emit(p, bi);
+                        if (!taken) emit(p, bi, insideCut(scene, body, p));
                     }
                 }
     }
+}
+
+/// The bodies that rest on the terrain, directly or through other resting bodies: seeded at
+/// rest with a particle within one cell of a collider's surface, or of a particle of a resting
+/// body (the grid couples particles that close). The others, seeded moving or in the air (a
+/// block dropped on the ground, a snowman falling on the slab), would only fall or fly while
+/// the rest settles: they wait outside the settling stage and join at t = 0 as seeded.
+std::vector<bool> restingBodies(const SceneDesc& scene, const World& world,
+                                const std::vector<std::uint32_t>& bodyOf) {
+    const std::size_t bodies = scene.bodies.size();
+    const int dim = world.dim;
+    const float dx = world.dx;
+    auto cellKey = [&](const Vec3f& p, int ox, int oy, int oz) {
+        const std::int64_t i = std::int64_t(std::floor(p[0] / dx)) + ox;
+        const std::int64_t j = std::int64_t(std::floor(p[1] / dx)) + oy;
+        const std::int64_t k = dim == 3 ? std::int64_t(std::floor(p[2] / dx)) + oz : 0;
+        return ((i & 0x1fffff) << 42) | ((j & 0x1fffff) << 21) | (k & 0x1fffff);
+    };
+    std::vector<bool> resting(bodies, false), moving(bodies, false);
+    std::vector<std::unordered_set<std::int64_t>> cells(bodies);
+    for (std::size_t b = 0; b < bodies; ++b)
+        moving[b] = scene.bodies[b].velocity != Vec3d{0.0, 0.0, 0.0};
+    const ParticleSet& ps = world.particles;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const std::uint32_t b = bodyOf[i];
+        cells[b].insert(cellKey(ps.x[i], 0, 0, 0));
+        if (!moving[b] && !resting[b] && groundDistance(world.colliders, ps.x[i]) < dx)
+            resting[b] = true;
+    }
+    const int nz = dim == 3 ? 1 : 0;
+    for (bool grew = true; grew;) {
+        grew = false;
+        for (std::size_t b = 0; b < bodies; ++b) {
+            if (resting[b] || moving[b]) continue;
+            for (std::size_t i = 0; i < ps.size() && !resting[b]; ++i) {
+                if (bodyOf[i] != b) continue;
+                for (int ox = -1; ox <= 1 && !resting[b]; ++ox)
+                    for (int oy = -1; oy <= 1 && !resting[b]; ++oy)
+                        for (int oz = -nz; oz <= nz && !resting[b]; ++oz)
+                            for (std::size_t o = 0; o < bodies && !resting[b]; ++o)
+                                resting[b] = o != b && resting[o] &&
+                                             cells[o].count(cellKey(ps.x[i], ox, oy, oz));
+            }
+            grew = grew || resting[b];
+        }
+    }
+    return resting;
 }
 
 /// Seeds the bodies in two passes (count, then fill) so the particle arrays are allocated once
 /// at their final size: growing them would transiently need up to twice the memory.
 void seedBodies(const SceneDesc& scene, World& world) {
     std::size_t count = 0;
-    forEachSeed(scene, world.colliders, [&](const Vec3f&, std::size_t) { ++count; });
+    forEachSeed(scene, world.colliders, [&](const Vec3f&, std::size_t, bool) { ++count; });
     world.particles.reserve(count);
     world.particlesPerBody.assign(scene.bodies.size(), 0);
     const float volume =
         float(std::pow(scene.grid.dx, scene.simulation.dimension) / scene.grid.particlesPerCell);
-    forEachSeed(scene, world.colliders, [&](const Vec3f& p, std::size_t bi) {
+    std::vector<std::uint32_t> bodyOf;
+    bodyOf.reserve(count);
+    forEachSeed(scene, world.colliders, [&](const Vec3f& p, std::size_t bi, bool inCut) {
         const BodyDesc& body = scene.bodies[bi];
         const Material& mat = world.materials[body.materialIndex];
+        PlasticState state = mat.initialState();
+        if (inCut) state.flags |= kFlagInCut;
         world.particles.add(p, toVec3f(body.velocity), mat.density * volume, volume,
-                            body.materialIndex, mat.initialState());
-        ++world.particlesPerBody[bi];
+                            body.materialIndex, state);
+        bodyOf.push_back(std::uint32_t(bi));
+        if (!inCut) ++world.particlesPerBody[bi];
     });
+    const std::vector<bool> resting = restingBodies(scene, world, bodyOf);
+    for (std::size_t i = 0; i < bodyOf.size(); ++i)
+        if (!resting[bodyOf[i]]) world.particles.plastic[i].flags |= kFlagOutsideSettling;
 }
 
 } // namespace
 
-std::unique_ptr<World> buildWorld(const SceneDesc& scene) {
+std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
+                                  const std::function<bool()>& interrupted) {
     auto world = std::make_unique<World>();
     World& w = *world;
     w.dim = scene.simulation.dimension;
@@ -258,13 +316,26 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene) {
     w.particles.dim = w.dim;
     w.particles.dx = w.dx;
     seedBodies(scene, w);
-    w.particles.bucketByLeaf();
-    applyPlasticity(w); // the stress of the seeded state (and tau after bucketing)
     for (std::size_t i = 0; i < w.particles.size(); ++i) {
         const Material& m = w.materials[w.particles.material[i]];
         w.maxWaveSpeed = std::max(w.maxWaveSpeed, m.pWaveSpeed());
-        w.maxSpeed = std::max(w.maxSpeed, w.particles.v[i].norm());
     }
+    if (stage == BuildStage::Settled && scene.simulation.settle) {
+        // Bodies seeded moving are not at rest: they wait outside while the rest settles.
+        const ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
+        w.particles.bucketByLeaf();
+        w.settle =
+            settleUnderGravity(w, SettleParams{scene.simulation.settleMaxTime,
+                                               scene.simulation.settleTolerance, interrupted});
+        w.particles.append(moving);
+    }
+    // The saw cuts a snowpack at rest (after settling): the cut's particles go now.
+    w.particles.extractFlagged(kFlagInCut);
+    for (PlasticState& s : w.particles.plastic) s.flags &= ~kFlagOutsideSettling;
+    w.particles.bucketByLeaf();
+    applyPlasticity(w); // the stress of the start state (and tau after bucketing)
+    for (std::size_t i = 0; i < w.particles.size(); ++i)
+        w.maxSpeed = std::max(w.maxSpeed, w.particles.v[i].norm());
     return world;
 }
 

@@ -1,0 +1,53 @@
+// Starting at rest: the settling stage that brings a freshly seeded scene into static
+// equilibrium under gravity before t = 0 (a snowpack is in equilibrium before anything
+// triggers it; a body seeded stress-free under full gravity would bounce, and its dynamic
+// overshoot, twice the static load, would fail a weak layer at t = 0).
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <functional>
+#include <string>
+
+namespace firn {
+
+struct World;
+
+/// How the settling stage ran (summary.json: settle_*).
+struct SettleReport {
+    bool ran = false;         ///< the scene asked for settling
+    bool converged = false;   ///< a kinetic-energy peak fell below tolerance x elastic energy
+    bool interrupted = false; ///< SettleParams::interrupted ended it
+    double time = 0.0;        ///< simulated settling time, s
+    long long steps = 0;      ///< settling steps
+    double wallSeconds = 0.0;
+    int kineticResets = 0;      ///< times the velocities were zeroed at a kinetic-energy peak
+    double lastPeakRatio = 0.0; ///< last kinetic-energy peak / elastic energy
+    std::size_t overloaded = 0; ///< particles whose settled static stress exceeds their strength
+    Eigen::Vector3f overloadedMin = Eigen::Vector3f::Zero(); ///< their bounding box, m
+    Eigen::Vector3f overloadedMax = Eigen::Vector3f::Zero();
+    /// One sentence on what happened, naming where the static load exceeds the strength.
+    std::string message;
+};
+
+/// Settling parameters (SimulationDesc::settle*).
+struct SettleParams {
+    double maxTime = 2.0;    ///< s
+    double tolerance = 1e-6; ///< kinetic-energy peak / elastic energy that counts as at rest
+    /// Polled every step: true ends settling early (a signal asked the run to stop).
+    std::function<bool()> interrupted;
+};
+
+/// Dynamic relaxation of the world under full gravity (Cundall's kinetic damping: every time
+/// the total kinetic energy passes a peak, all velocities are set to zero, which removes the
+/// energy of the slowest mode at its equilibrium crossing). During settling every material is
+/// elastic (nothing can fail while it loads) and frictional contacts are sticky (a block on a
+/// slope steeper than its friction angle settles in place and starts to slide at t = 0). Ends
+/// when a kinetic-energy peak is below `tolerance` x the elastic energy, or after `maxTime`.
+/// Afterwards velocities are zero, time and step count restart at 0, the materials' plasticity
+/// is applied once to the settled stress, and the particles it yields are reported: their
+/// static load exceeds their strength. Throws SimulationError if settling goes unstable.
+SettleReport settleUnderGravity(World& world, const SettleParams& params);
+
+} // namespace firn

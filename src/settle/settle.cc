@@ -1,0 +1,165 @@
+// The settling stage (include/firn/settle.h): dynamic relaxation with kinetic damping.
+#include <firn/diagnostics.h>
+#include <firn/errors.h>
+#include <firn/settle.h>
+#include <firn/solver.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace firn {
+
+namespace {
+
+double kineticEnergy(const ParticleSet& ps) {
+    double e = 0.0;
+    for (std::size_t i = 0; i < ps.size(); ++i)
+        e += 0.5 * double(ps.mass[i]) * ps.v[i].squaredNorm();
+    return e;
+}
+
+void stopAll(ParticleSet& ps) {
+    std::fill(ps.v.begin(), ps.v.end(), Vec3f::Zero());
+    std::fill(ps.C.begin(), ps.C.end(), Mat3f::Zero());
+}
+
+/// What the world looks like while it settles: elastic materials, sticky instead of
+/// frictional contacts, full gravity, nothing asleep. Restored on destruction, so that an
+/// exception leaves the world as the scene describes it.
+class SettlingConditions {
+public:
+    explicit SettlingConditions(World& w)
+        : mWorld(w)
+        , mMaterials(w.materials)
+        , mColliders(w.colliders)
+        , mSleep(w.sleep)
+        , mGravityRamp(w.gravityRamp) {
+        for (Material& m : w.materials) m.model = MaterialModel::Elastic;
+        for (Collider& c : w.colliders)
+            if (c.boundary() == Boundary::Friction) c = c.withBoundary(Boundary::Sticky);
+        w.sleep = false;
+        w.gravityRamp = 0.f;
+    }
+    ~SettlingConditions() {
+        mWorld.materials = mMaterials;
+        mWorld.colliders = mColliders;
+        mWorld.sleep = mSleep;
+        mWorld.gravityRamp = mGravityRamp;
+    }
+    SettlingConditions(const SettlingConditions&) = delete;
+    SettlingConditions& operator=(const SettlingConditions&) = delete;
+
+private:
+    World& mWorld;
+    std::vector<Material> mMaterials;
+    std::vector<Collider> mColliders;
+    bool mSleep;
+    float mGravityRamp;
+};
+
+std::string formatBox(const Vec3f& lo, const Vec3f& hi, int dim) {
+    std::ostringstream out;
+    out.precision(3);
+    const char* axes = "xyz";
+    for (int a = 0; a < dim; ++a)
+        out << (a ? ", " : "") << axes[a] << " in [" << lo[a] << ", " << hi[a] << "] m";
+    return out.str();
+}
+
+/// Applies plasticity to the settled stress and reports the particles that yield: there the
+/// static load exceeds the strength. Their failed flag stays: they fail at t = 0, as they would
+/// in the first step.
+void reportOverload(World& w, SettleReport& report) {
+    ParticleSet& ps = w.particles;
+    for (PlasticState& s : ps.plastic) s.flags &= ~kFlagFailed;
+    applyPlasticity(w);
+    std::vector<std::size_t> perMaterial(w.materials.size(), 0);
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        if (!(ps.plastic[i].flags & kFlagFailed) || (ps.plastic[i].flags & kFlagInCut)) continue;
+        const Vec3f& x = ps.x[i];
+        if (report.overloaded == 0) report.overloadedMin = report.overloadedMax = x;
+        report.overloadedMin = report.overloadedMin.cwiseMin(x);
+        report.overloadedMax = report.overloadedMax.cwiseMax(x);
+        ++report.overloaded;
+        ++perMaterial[std::size_t(ps.material[i])];
+    }
+    if (report.overloaded == 0) return;
+    std::ostringstream why;
+    why << report.overloaded << " particles carry a static load beyond their strength and yield at "
+        << "t = 0 (";
+    bool first = true;
+    for (std::size_t m = 0; m < perMaterial.size(); ++m) {
+        if (!perMaterial[m]) continue;
+        why << (first ? "" : ", ") << perMaterial[m] << " of material " << m + 1;
+        first = false;
+    }
+    why << "), within " << formatBox(report.overloadedMin, report.overloadedMax, w.dim);
+    report.message = why.str();
+}
+
+} // namespace
+
+SettleReport settleUnderGravity(World& w, const SettleParams& params) {
+    const auto start = std::chrono::steady_clock::now();
+    SettleReport report;
+    report.ran = true;
+    if (w.particles.size() == 0) { // nothing rests on the terrain: nothing to settle
+        report.converged = true;
+        return report;
+    }
+    {
+        SettlingConditions conditions(w);
+        applyPlasticity(w); // elastic stress of the seeded state
+        double previous = 0.0;
+        while (w.time < params.maxTime) {
+            if (params.interrupted && params.interrupted()) {
+                report.interrupted = true;
+                break;
+            }
+            step(w, stableTimeStep(w));
+            if (!std::isfinite(w.maxSpeed))
+                throw SimulationError("settling went unstable at t = " + std::to_string(w.time) +
+                                      " s of settling (" + std::to_string(w.steps) + " steps)");
+            const double kinetic = kineticEnergy(w.particles);
+            if (kinetic == 0.0) { // nothing moves at all: no load, or exactly in equilibrium
+                report.converged = true;
+                break;
+            }
+            if (kinetic >= previous) {
+                previous = kinetic;
+                continue;
+            }
+            // Past a peak of the kinetic energy: the slowest mode crosses its equilibrium.
+            stopAll(w.particles);
+            ++report.kineticResets;
+            const double elastic = computeDiagnostics(w).elasticEnergy;
+            report.lastPeakRatio = elastic > 0.0 ? previous / elastic : 0.0;
+            previous = 0.0;
+            if (report.lastPeakRatio <= params.tolerance) {
+                report.converged = true;
+                break;
+            }
+        }
+    }
+    report.time = w.time;
+    report.steps = w.steps;
+    stopAll(w.particles);
+    w.time = 0.0;
+    w.steps = 0;
+    w.maxSpeed = 0.f;
+    reportOverload(w, report);
+    if (!report.converged && !report.interrupted) {
+        std::ostringstream why;
+        why << "not at rest after settle_max_time = " << params.maxTime << " s (last kinetic "
+            << "energy peak " << report.lastPeakRatio << " of the elastic energy)"
+            << (report.message.empty() ? "" : "; ") << report.message;
+        report.message = why.str();
+    }
+    report.wallSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return report;
+}
+
+} // namespace firn
