@@ -34,10 +34,14 @@ struct ParticleSet {
     int dim = 3;
     float dx = 0.05f;
 
-    std::vector<Vec3f> x;               ///< position, m
-    std::vector<Vec3f> v;               ///< velocity, m/s
-    std::vector<Mat3f> C;               ///< APIC affine velocity gradient, 1/s
-    std::vector<Mat3f> F;               ///< elastic deformation gradient
+    std::vector<Vec3f> x; ///< position, m
+    std::vector<Vec3f> v; ///< velocity, m/s
+    std::vector<Mat3f> C; ///< APIC affine velocity gradient, 1/s
+    /// Elastic displacement gradient H = Fe - I (Fe: elastic deformation gradient). Stored
+    /// instead of Fe because snow at rest has strains of 1e-4..1e-3 and changes them by 1e-9 a
+    /// step: in Fe (entries near 1, float spacing 1.2e-7) those increments round away, biased
+    /// towards the larger ones, and a resting body gains energy every step (README "Validation").
+    std::vector<Mat3f> H;
     std::vector<Sym3f> tau;             ///< Kirchhoff stress after the last plasticity pass, Pa
     std::vector<float> mass;            ///< kg (2D: per metre of depth)
     std::vector<float> volume0;         ///< initial volume, m^3 (2D: m^2)
@@ -63,6 +67,8 @@ struct ParticleSet {
     SleepLevel leafSleepLevel(std::size_t leaf) const {
         return leaf < leafSleep.size() ? SleepLevel(leafSleep[leaf]) : kAwake;
     }
+    /// Elastic deformation gradient Fe = I + H of particle i (rounded to float).
+    Mat3f deformationGradient(std::size_t i) const { return Mat3f::Identity() + H[i]; }
     /// Kirchhoff stress of particle i, asleep or awake.
     Sym3f stress(std::size_t i) const {
         if (!asleep(i)) return tau[i];
@@ -71,7 +77,7 @@ struct ParticleSet {
     }
     std::size_t leafCount() const { return leaves.size(); }
 
-    /// Appends one particle at rest with F = I (leaves are rebuilt by bucketByLeaf).
+    /// Appends one particle at rest, undeformed (H = 0) (leaves are rebuilt by bucketByLeaf).
     void add(const Vec3f& position, const Vec3f& velocity, float particleMass, float volume,
              int materialIndex, const PlasticState& state);
     /// Sorts particles into leaves (stable, deterministic for any thread count). Cheap when

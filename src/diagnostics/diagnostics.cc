@@ -62,7 +62,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         d.momentum += m * v;
         d.kineticEnergy += 0.5 * m * v.squaredNorm();
         d.gravitationalEnergy -= m * world.gravity.cast<double>().dot(x);
-        const LeftStretch ls = leftStretch(ps.F[i], world.dim);
+        const LeftStretch ls = leftStretch(ps.deformationGradient(i), world.dim);
         Vec3f eps = Vec3f::Zero();
         for (int a = 0; a < world.dim; ++a) eps[a] = std::log(ls.sigma[a]);
         d.elasticEnergy += ps.volume0[i] * henckyEnergy(mat.lame, eps, world.dim);

@@ -13,8 +13,9 @@ int seriesTerms(float normSq) {
 }
 } // namespace
 
-bool henckyStrainSeries(const Eigen::Matrix3f& F, int dim, Eigen::Matrix3f& eps) {
-    Eigen::Matrix3f H = F - Eigen::Matrix3f::Identity();
+bool henckyStrainSeries(const Eigen::Matrix3f& displacementGradient, int dim,
+                        Eigen::Matrix3f& eps) {
+    Eigen::Matrix3f H = displacementGradient;
     if (dim == 2) H.row(2).setZero(), H.col(2).setZero();
     const Eigen::Matrix3f X = H + H.transpose() + H * H.transpose();
     const float normSq = X.squaredNorm();

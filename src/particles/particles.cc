@@ -55,7 +55,7 @@ void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float partic
     x.push_back(position);
     v.push_back(velocity);
     C.push_back(Mat3f::Zero());
-    F.push_back(Mat3f::Identity());
+    H.push_back(Mat3f::Zero());
     tau.push_back(Sym3f{});
     mass.push_back(particleMass);
     volume0.push_back(volume);
@@ -64,7 +64,7 @@ void ParticleSet::add(const Vec3f& position, const Vec3f& velocity, float partic
 }
 
 void ParticleSet::reserve(std::size_t n) {
-    x.reserve(n), v.reserve(n), C.reserve(n), F.reserve(n), tau.reserve(n);
+    x.reserve(n), v.reserve(n), C.reserve(n), H.reserve(n), tau.reserve(n);
     mass.reserve(n), volume0.reserve(n), material.reserve(n), plastic.reserve(n);
 }
 
@@ -254,13 +254,13 @@ void ParticleSet::bucketByLeaf() {
         leaves.swap(newLeaves);
         leafStart.swap(newStart);
     }
-    // The stress array is the scratch: it is recomputed from F after every bucketing.
+    // The stress array is the scratch: it is recomputed from H after every bucketing.
     unsigned char* scratch = reinterpret_cast<unsigned char*>(tau.data());
     const std::size_t stride = sizeof(Sym3f);
     gatherInPlace(x, mOrder, scratch, stride);
     gatherInPlace(v, mOrder, scratch, stride);
     gatherInPlace(C, mOrder, scratch, stride);
-    gatherInPlace(F, mOrder, scratch, stride);
+    gatherInPlace(H, mOrder, scratch, stride);
     gatherInPlace(mass, mOrder, scratch, stride);
     gatherInPlace(volume0, mOrder, scratch, stride);
     gatherInPlace(material, mOrder, scratch, stride);

@@ -41,10 +41,10 @@ Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d) {
 /// Most particles are inside their yield surface with stretches near 1: there the Hencky strain
 /// comes from a series and the stress needs no principal decomposition. Returns false when the
 /// particle needs the full path (large stretch or yielding).
-bool elasticFastPath(const Material& mat, const Mat3f& F, const PlasticState& state, int dim,
+bool elasticFastPath(const Material& mat, const Mat3f& H, const PlasticState& state, int dim,
                      Sym3f& tau) {
     Mat3f eps;
-    if (!henckyStrainSeries(F, dim, eps)) return false;
+    if (!henckyStrainSeries(H, dim, eps)) return false;
     const float tr = eps.trace();
     const float devNorm = std::sqrt(std::max(0.f, eps.squaredNorm() - tr * tr / float(dim)));
     if (!staysElastic(mat, tr, devNorm, state)) return false;
@@ -115,18 +115,22 @@ void applyPlasticity(World& world) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
             if (ps.asleep(i)) continue;
             const Material& mat = world.materials[ps.material[i]];
-            if (elasticFastPath(mat, ps.F[i], ps.plastic[i], dim, ps.tau[i])) continue;
-            const LeftStretch ls = leftStretch(ps.F[i], dim);
+            if (elasticFastPath(mat, ps.H[i], ps.plastic[i], dim, ps.tau[i])) continue;
+            const LeftStretch ls = leftStretch(ps.deformationGradient(i), dim);
             Vec3f eps = Vec3f::Zero();
             for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
             if (mat.model != MaterialModel::Elastic) {
                 const ReturnMapResult rm = returnMap(mat, eps, ps.plastic[i]);
                 ps.plastic[i] = rm.state;
                 if (rm.eps != eps) {
-                    // Fe = U exp(eps) V^T = U diag(exp(eps) / sigma) U^T Fe_trial
-                    Vec3f scale = Vec3f::Ones();
-                    for (int a = 0; a < dim; ++a) scale[a] = std::exp(rm.eps[a]) / ls.sigma[a];
-                    ps.F[i] = (ls.U * scale.asDiagonal() * ls.U.transpose()) * ps.F[i];
+                    // Fe = U exp(eps) V^T = R Fe_trial with R = U diag(exp(eps) / sigma) U^T, as
+                    // H <- H + (R - I)(I + H), R - I = U diag(expm1(eps - eps_trial)) U^T, which
+                    // keeps a small return in H (ParticleSet::H).
+                    Vec3f scaleMinusOne = Vec3f::Zero();
+                    for (int a = 0; a < dim; ++a) scaleMinusOne[a] = std::expm1(rm.eps[a] - eps[a]);
+                    const Mat3f rotatedMinusI =
+                        ls.U * scaleMinusOne.asDiagonal() * ls.U.transpose();
+                    ps.H[i] += rotatedMinusI + rotatedMinusI * ps.H[i];
                     eps = rm.eps;
                 }
             }

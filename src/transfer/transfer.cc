@@ -312,7 +312,10 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                     ps.C[i] = C;
                     ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic) : vPic;
                     ps.x[i] += dt * vPic;
-                    ps.F[i] = (Mat3f::Identity() + dt * C) * ps.F[i];
+                    // Fe <- (I + dt C) Fe, as H <- H + dt C (I + H) so that a strain increment
+                    // far below float spacing at 1 is kept (ParticleSet::H).
+                    const Mat3f dtC = dt * C;
+                    ps.H[i] += dtC + dtC * ps.H[i];
                     const float speed = ps.v[i].norm();
                     // NaN compares false: make it win the reduction so the caller sees it.
                     maxSpeed = speed == speed ? std::max(maxSpeed, speed)

@@ -97,7 +97,7 @@ TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[det
         REQUIRE(sameBits(one->particles.x, two->particles.x));
         REQUIRE(sameBits(one->particles.v, two->particles.v));
         REQUIRE(sameBits(one->particles.C, two->particles.C));
-        REQUIRE(sameBits(one->particles.F, two->particles.F));
+        REQUIRE(sameBits(one->particles.H, two->particles.H));
         REQUIRE(sameBits(one->particles.plastic, two->particles.plastic));
         // and the run did something: the sphere moved and the sand yielded
         double travelled = 0;
