@@ -75,17 +75,17 @@ ParticleSet ParticleSet::extractFlagged(std::uint32_t flags) {
     for (std::size_t i = 0; i < size(); ++i) {
         if (plastic[i].flags & flags) {
             out.x.push_back(x[i]), out.v.push_back(v[i]), out.C.push_back(C[i]);
-            out.F.push_back(F[i]), out.tau.push_back(tau[i]), out.mass.push_back(mass[i]);
+            out.H.push_back(H[i]), out.tau.push_back(tau[i]), out.mass.push_back(mass[i]);
             out.volume0.push_back(volume0[i]), out.material.push_back(material[i]);
             out.plastic.push_back(plastic[i]);
             continue;
         }
-        x[kept] = x[i], v[kept] = v[i], C[kept] = C[i], F[kept] = F[i], tau[kept] = tau[i];
+        x[kept] = x[i], v[kept] = v[i], C[kept] = C[i], H[kept] = H[i], tau[kept] = tau[i];
         mass[kept] = mass[i], volume0[kept] = volume0[i], material[kept] = material[i];
         plastic[kept] = plastic[i];
         ++kept;
     }
-    x.resize(kept), v.resize(kept), C.resize(kept), F.resize(kept), tau.resize(kept);
+    x.resize(kept), v.resize(kept), C.resize(kept), H.resize(kept), tau.resize(kept);
     mass.resize(kept), volume0.resize(kept), material.resize(kept), plastic.resize(kept);
     leaves.clear(), leafStart.clear(), leafQuietSteps.clear(), leafSleep.clear(), leafPush.clear();
     return out;
@@ -95,7 +95,7 @@ void ParticleSet::append(const ParticleSet& other) {
     x.insert(x.end(), other.x.begin(), other.x.end());
     v.insert(v.end(), other.v.begin(), other.v.end());
     C.insert(C.end(), other.C.begin(), other.C.end());
-    F.insert(F.end(), other.F.begin(), other.F.end());
+    H.insert(H.end(), other.H.begin(), other.H.end());
     tau.insert(tau.end(), other.tau.begin(), other.tau.end());
     mass.insert(mass.end(), other.mass.begin(), other.mass.end());
     volume0.insert(volume0.end(), other.volume0.begin(), other.volume0.end());
