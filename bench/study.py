@@ -283,7 +283,7 @@ def wave_speed(metrics):
 
 
 # V7: Lube et al. (2005) planar collapse, aspect ratio a = H0 / L0 = 1: a 0.1 m square of
-# cohesionless Drucker-Prager sand (phi 30 deg) against a slip wall at x = 0 on a sticky floor,
+# cohesionless Mohr-Coulomb sand (phi 30 deg) against a slip wall at x = 0 on a sticky floor,
 # as in README's first look. Law: (L_inf - L0) / L0 = 1.2 a for a < 1.8. L_inf is the 99th
 # percentile of the deposit's mass along x, from the last frame's density volume (nodal mass
 # spread by the B-spline, so a fraction of a cell farther out than the particles).
@@ -399,7 +399,7 @@ CASES = {
            "quick": [("apic", [0.02, 0.01, 0.005])]},
     "v7": {"title": "V7 column collapse a = 1 (Lube 2005): runout", "reference": COLUMN_LAW,
            "dx": [0.01, 0.005, 0.0025], "extra": [("apic", 0.00125)], "methods": list(METHODS),
-           "quick": [("apic", [0.01, 0.005])]},
+           "quick": [("apic", [0.005])]},  # 20 cells per column: 0.01 is 26 % short
     "v8": {"title": "V8 PST critical cut length (closed form 1.129 m)", "reference": PST_AC,
            "dx": [0.03, 0.02, 0.015], "methods": ["apic"], "quick": []},
 }
@@ -820,9 +820,11 @@ def quick_check(study, rows):
             ok = False
     if "v7" in by_case:
         runs = sorted(by_case["v7"], key=lambda r: -r["dx"])
-        if not all(abs(r["relative_error"]) < 0.25 for r in runs):  # validation.md V7: +-25 %
+        # The issue's +-15 % at 20 cells per column (validation.md V7 allows 25 %; measured
+        # -6 % with Mohr-Coulomb, so 15 % still fails a return of the plane-strain cone's error).
+        if not all(abs(r["relative_error"]) < 0.15 for r in runs):
             print(f"check failed: V7 runout errors {[r['relative_error'] for r in runs]} "
-                  "outside V7's 25 %")
+                  "outside 15 %")
             ok = False
     return ok
 

@@ -1,5 +1,6 @@
 // Single-point tests of the constitutive models: Hencky elasticity, the Cam-Clay invariants and
-// yield surface, and the three return mappings (validation.md V6; snow-model.md).
+// yield surface, and the snow and weak-layer return mappings (validation.md V6; snow-model.md).
+// The granular model has its own file, granular_test.cc.
 //
 // Loading paths are coaxial (fixed principal axes), so the elastic log strain after a step is
 // simply eps_elastic + d_eps: the trial strain of the next return mapping.
@@ -763,75 +764,6 @@ TEST_CASE("Weak layer: elastic inside, failed flag and eta on first yield",
         const ReturnMapResult r3 = returnMap(m, tension, s0);
         CHECK(r3.eps == r2.eps);
         CHECK(r3.state.eta == r2.state.eta);
-    }
-}
-
-// ---------------------------------------------------------------------------------------------
-// Drucker-Prager (granular), Klar et al. 2016 sec. 7.3.
-
-namespace {
-
-/// delta gamma of Klar et al. 2016 sec. 7.3: > 0 outside the cone, <= 0 inside.
-float dpDeltaGamma(const Material& m, const Vec3f& eps) {
-    const int d = m.dim;
-    const float sinPhi = std::sin(m.frictionAngleDeg * 3.14159265f / 180.f);
-    const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
-    const float tr = traceOf(eps, d);
-    Vec3f dev = eps - isotropic(d, tr);
-    return dev.norm() +
-           (float(d) * m.lame.lambda + 2.f * m.lame.mu) / (2.f * m.lame.mu) * tr * alpha;
-}
-
-} // namespace
-
-TEST_CASE("Drucker-Prager: inside stays, outside lands on the cone, tension to the apex",
-          "[material][druckerprager]") {
-    for (int dim : {2, 3}) {
-        INFO("dim = " << dim);
-        const Material m = Material::fromDesc(roundDesc(MaterialModel::Granular), dim);
-        const PlasticState s0 = m.initialState();
-        std::mt19937 rng(77 + dim);
-        std::uniform_real_distribution<float> ut(-0.02f, 0.f), ud(0.f, 0.05f), ua(0.f, 6.3f);
-        int inside = 0, outside = 0;
-        for (int k = 0; k < 2000; ++k) {
-            const float tr = ut(rng);
-            const Vec3f trial = isotropic(dim, tr) + ud(rng) * deviatoricDirection(dim, ua(rng));
-            const float dGamma = dpDeltaGamma(m, trial);
-            const ReturnMapResult r = returnMapDruckerPrager(m, trial, s0);
-            if (dGamma <= 0.f) {
-                ++inside;
-                CHECK(r.eps == trial);
-                CHECK(r.state.flags == 0u);
-            } else {
-                ++outside;
-                // On the cone: delta gamma = 0 after, to 1e-5 of the strain (float round-off
-                // of |dev| and tr, each ~1e-7 relative).
-                CHECK(std::abs(dpDeltaGamma(m, r.eps)) <= 1e-5f * trial.norm());
-                // Pressure kept (radial return in the deviatoric plane), direction kept. The
-                // trace carries round-off of the entries, ~1e-7 |eps|: 1e-6 |eps|.
-                CHECK(traceOf(r.eps, dim) ==
-                      Approx(traceOf(trial, dim)).margin(1e-6f * trial.norm()));
-                const Vec3f devIn = trial - isotropic(dim, tr);
-                const Vec3f devOut = r.eps - isotropic(dim, traceOf(r.eps, dim));
-                CHECK(devOut.normalized().dot(devIn.normalized()) == Approx(1.f).epsilon(1e-5));
-                CHECK(r.state.flags == kFlagFailed);
-                CHECK(r.state.epsV == 0.f);
-            }
-        }
-        CHECK(inside > 100);
-        CHECK(outside > 100);
-
-        // Tension (and zero-pressure shear) goes to the apex: zero stress.
-        for (float tr : {0.f, 1e-4f, 0.01f}) {
-            const Vec3f trial = isotropic(dim, tr) + 0.01f * deviatoricDirection(dim);
-            const ReturnMapResult r = returnMapDruckerPrager(m, trial, s0);
-            CHECK(r.eps == Vec3f::Zero());
-            CHECK(r.state.flags == kFlagFailed);
-            CHECK(r.state.epsV == Approx(tr).margin(1e-7));
-        }
-        // Dispatch.
-        const Vec3f trial = isotropic(dim, -0.001f) + 0.05f * deviatoricDirection(dim);
-        CHECK(returnMap(m, trial, s0).eps == returnMapDruckerPrager(m, trial, s0).eps);
     }
 }
 

@@ -62,7 +62,7 @@ struct Material {
     float density = 0.f; ///< kg/m^3
     Lame lame;
     CamClayParams camClay;
-    float frictionAngleDeg = 30.f; ///< granular (Drucker-Prager)
+    float frictionAngleDeg = 30.f; ///< granular (Mohr-Coulomb friction angle)
     int dim = 3;
 
     static Material fromDesc(const MaterialDesc& desc, int dim);
@@ -103,9 +103,14 @@ ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
 /// Weak layer: softening with the anticrack strain (eqs. 3-4), then frictional with M_d (eq. 5).
 ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
                                    const PlasticState& state);
-/// Cohesionless Drucker-Prager (Klar et al. 2016, sec. 7.3): tension -> apex, else project to cone.
-ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
-                                       const PlasticState& state);
+/// Cohesionless Mohr-Coulomb with zero dilatancy in principal Kirchhoff stress (granular.cc):
+/// tension -> apex, else return at fixed pressure onto f = s1 - s3 + (s1 + s3) sin(phi) = 0
+/// (de Souza Neto et al. 2008, Box 8.1). 2D is plane strain (see granular.cc).
+ReturnMapResult returnMapMohrCoulomb(const Material& m, const Vec3f& epsTrial,
+                                     const PlasticState& state);
+/// An upper bound on f / 2 of the granular model at compressive strain trace `trEps` and
+/// deviatoric norm `devNorm` over all Lode angles (exact in 2D): <= 0 means inside.
+float mohrCoulombYieldBound(const Material& m, float trEps, float devNorm);
 
 /// True when a strain with trace `trEps` and deviatoric norm `devNorm` (over the d x d block)
 /// lies strictly inside the current yield surface of the particle, so that the return mapping

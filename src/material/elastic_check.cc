@@ -6,24 +6,15 @@
 
 namespace firn {
 
-namespace {
-constexpr float kPi = 3.14159265358979323846f;
-}
-
 bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticState& state) {
     const Lame& lame = m.lame;
     switch (m.model) {
     case MaterialModel::Elastic:
         return true;
-    case MaterialModel::Granular: {
-        // Klar et al. 2016, sec. 7.3: inside the cone when delta_gamma <= 0 under compression.
+    case MaterialModel::Granular:
+        // Cohesionless: any expansion (and the stress-free state) is for the return mapping.
         if (trEps >= 0.f) return trEps == 0.f && devNorm == 0.f;
-        const float sinPhi = std::sin(m.frictionAngleDeg * kPi / 180.f);
-        const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
-        const float dGamma = devNorm + (float(m.dim) * lame.lambda + 2.f * lame.mu) /
-                                           (2.f * lame.mu) * trEps * alpha;
-        return dGamma <= 0.f;
-    }
+        return mohrCoulombYieldBound(m, trEps, devNorm) <= 0.f;
     case MaterialModel::Snow:
     case MaterialModel::WeakLayer: {
         const CamClayParams& cc = m.camClay;

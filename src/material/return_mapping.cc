@@ -24,8 +24,6 @@ namespace firn {
 
 namespace {
 
-constexpr float kPi = 3.14159265358979323846f;
-
 /// The Cam-Clay surface a projection uses: p0 (Pa), slope M and cohesion ratio beta.
 struct CamClaySurface {
     float p0;
@@ -182,33 +180,6 @@ ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
     return {pr.eps, softenAnticrack(state, pr, cc.alpha)};
 }
 
-ReturnMapResult returnMapDruckerPrager(const Material& m, const Vec3f& epsTrial,
-                                       const PlasticState& state) {
-    // Klar et al. 2016, sec. 7.3: cohesionless Drucker-Prager with a constant friction angle.
-    const int dim = m.dim;
-    const float mu = m.lame.mu, lambda = m.lame.lambda;
-    const float sinPhi = std::sin(m.frictionAngleDeg * kPi / 180.f);
-    const float alpha = std::sqrt(2.f / 3.f) * 2.f * sinPhi / (3.f - sinPhi);
-
-    const StrainSplit split = splitStrain(epsTrial, dim);
-    const float tr = split.tr, devNorm = split.devNorm;
-
-    ReturnMapResult out{epsTrial, state};
-    if (tr >= 0.f) {
-        // Expansion: a cohesionless material carries no tension, the stress goes to the apex.
-        if (tr == 0.f && devNorm == 0.f) return out; // already stress-free
-        out.eps = replaceActive(epsTrial, Vec3f::Zero(), dim);
-        out.state.epsV += tr; // the whole volume change is plastic
-    } else {
-        const float dGamma = devNorm + (float(dim) * lambda + 2.f * mu) / (2.f * mu) * tr * alpha;
-        if (!(dGamma > 0.f)) return out; // inside the cone
-        // Radial return in the deviatoric plane: tr(eps) and so p are kept (no dilatancy).
-        out.eps -= (dGamma / devNorm) * split.dev; // devNorm > dGamma > 0 here; 0 past dim
-    }
-    out.state.flags |= kFlagFailed;
-    return out;
-}
-
 ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const PlasticState& state) {
     switch (m.model) {
     case MaterialModel::Snow:
@@ -216,7 +187,7 @@ ReturnMapResult returnMap(const Material& m, const Vec3f& epsTrial, const Plasti
     case MaterialModel::WeakLayer:
         return returnMapWeakLayer(m, epsTrial, state);
     case MaterialModel::Granular:
-        return returnMapDruckerPrager(m, epsTrial, state);
+        return returnMapMohrCoulomb(m, epsTrial, state);
     case MaterialModel::Elastic:
         break;
     }
