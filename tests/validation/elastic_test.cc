@@ -219,7 +219,7 @@ ColumnResult loadColumn(const std::string& transfer, int cellsOverHeight) {
         for (std::size_t rank = 0; rank < order.size(); ++rank) {
             const std::size_t i = order[rank];
             // Cauchy stress sigma = tau / J from the Kirchhoff stress the particle stores.
-            const double J = ps.F[i].topLeftCorner<2, 2>().determinant();
+            const double J = ps.deformationGradient(i).topLeftCorner<2, 2>().determinant();
             sigmaSum[rank] += dt * ps.stress(i).yy / J;
         }
         topSum += dt * ps.x[order.back()][1];
