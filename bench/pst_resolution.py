@@ -1,21 +1,23 @@
 #!/usr/bin/env python3
-"""PST resolution study (issue: snow mechanics): critical cut length and steady crack speed of
-scenes/pst.toml at several grid spacings, so we know what resolution the answer needs.
+"""PST study (validation.md V8): critical cut length and steady crack speed of scenes/pst.toml
+at several grid spacings and slope angles, beside the closed form of Gaume et al. (2017a).
 
-    /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--firn build/firn]
-        [--set key=value ...] [--criterion run|onset] [--ac-only] [--out DIR]
+    /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
+        [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only] [--out DIR]
 
-For each dx: the critical cut length by bisection on a 3 m column (criterion "run": the crack
-reaches the far end within 0.2 s; "onset": it grows more than 0.3 m past the cut), then the
-steady crack speed on the full 6 m column (not with --ac-only). --set passes scene overrides
-to every run, e.g. --set material.weak.initial_p0=6900 for the weak-layer variants of the
-README's Snow section. Writes results.csv into bench/results/pst-resolution/ (or --out) and
-prints a table. The weak layer stays 0.06 m thick,
-so it spans 2 to 4 cells over the default spacings; particles per cell stay 4.
+For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm) on a 3 m column with the cut at the
+down-slope end, as in the field (criterion "run": the crack reaches the up-slope end within
+0.2 s; "onset": it grows more than 0.3 m past the cut), then the steady crack speed on the full
+6 m column with a 0.6 m cut at its down-slope end (not with --ac-only). A slope tilts gravity,
+g (sin psi, -cos psi), so that x runs down the slope. --set passes scene overrides to every run.
+Writes results.csv into bench/results/pst-resolution/ (or --out) and prints a table. The weak
+layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; particles per cell
+stay 4.
 """
 import argparse
 import csv
 import json
+import math
 import os
 import subprocess
 import sys
@@ -37,28 +39,45 @@ def run(firn, overrides, out, extra=()):
     return summary, time.time() - start
 
 
-def tip_reach(out):
-    """Largest crack_tip_max_x in metrics.csv (0 when no crack)."""
-    reach = 0.0
+def gravity(slope):
+    g = 9.81
+    psi = math.radians(slope)
+    return f"simulation.gravity=[{g * math.sin(psi):.6f}, {-g * math.cos(psi):.6f}]"
+
+
+def closed_form_ac(slope, E=5e6, nu=0.2, rho=250.0, D=0.5, D_wl=0.06, G_wl=0.2e6, tau_p=1000.0):
+    """a_c of Gaume et al. (2017a) as validation.md V8 gives it, for pst.toml's slab and layer."""
+    psi = math.radians(slope)
+    lam = math.sqrt(E / (1 - nu * nu) * D * D_wl / G_wl)
+    sigma_n = rho * 9.81 * D * math.cos(psi)
+    tau_g = rho * 9.81 * D * math.sin(psi)
+    return lam * (-tau_g + math.sqrt(tau_g ** 2 + 2 * sigma_n * (tau_p - tau_g))) / sigma_n
+
+
+def up_slope_reach(out):
+    """Smallest crack_tip_min_x in metrics.csv (inf when no crack): how far up-slope it ran."""
+    reach = math.inf
     with open(os.path.join(out, "metrics.csv")) as f:
         for row in csv.DictReader(f):
-            if row["crack_tip_max_x"]:
-                reach = max(reach, float(row["crack_tip_max_x"]))
+            if row["crack_tip_min_x"]:
+                reach = min(reach, float(row["crack_tip_min_x"]))
     return reach
 
 
-def critical_cut(firn, dx, work, extra=(), criterion="run", steps=4):
-    stays, runs = 0.1, 0.9
+def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5):
+    stays, runs = 0.0, 0.8
     seconds = 0.0
+    length = 3.0
     for i in range(steps):
         cut = 0.5 * (stays + runs)
-        out = os.path.join(work, f"ac-{dx}-{i}")
-        _, t = run(firn, [f"grid.dx={dx}", "body.weak.x_range=[0.0, 3.0]",
-                          "body.slab.x_range=[0.0, 3.0]", f"cut.weak.length={cut}",
-                          "simulation.end_time=0.2", "simulation.frame_rate=100"], out, extra)
+        out = os.path.join(work, f"ac-{dx}-{slope}-{i}")
+        _, t = run(firn, [f"grid.dx={dx}", gravity(slope), f"body.weak.x_range=[0.0, {length}]",
+                          f"body.slab.x_range=[0.0, {length}]", f"cut.weak.from_x={length - cut}",
+                          f"cut.weak.length={cut}", "simulation.end_time=0.2",
+                          "simulation.frame_rate=100"], out, extra)
         seconds += t
-        reach = tip_reach(out)
-        if (reach > 2.9) if criterion == "run" else (reach > cut + 0.3):
+        reach = up_slope_reach(out)
+        if (reach < 0.1) if criterion == "run" else (reach < length - cut - 0.3):
             runs = cut
         else:
             stays = cut
@@ -68,6 +87,7 @@ def critical_cut(firn, dx, work, extra=(), criterion="run", steps=4):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dx", type=float, nargs="+", default=[0.03, 0.02, 0.015])
+    parser.add_argument("--slopes", type=float, nargs="+", default=[0.0])
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
     parser.add_argument("--set", action="append", default=[], dest="overrides",
                         help="scene override for every run (repeatable)")
@@ -80,20 +100,27 @@ def main():
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for dx in args.dx:
-            stays, runs, t_ac = critical_cut(args.firn, dx, work, args.overrides, args.criterion)
-            row = {"dx": dx, "cells_in_weak_layer": round(0.06 / dx, 2),
-                   "criterion": args.criterion, "overrides": " ".join(args.overrides),
-                   "a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
-                   "wall_seconds_ac": round(t_ac, 1)}
-            if not args.ac_only:
-                summary, t_speed = run(args.firn, [f"grid.dx={dx}", "simulation.end_time=0.25"],
-                                       os.path.join(work, f"speed-{dx}"), args.overrides)
-                row.update({"steady_crack_speed": round(summary["mean_crack_speed"], 2),
-                            "propagation_distance": round(summary["crack_propagation_distance"], 3),
-                            "particles": summary["particles"],
-                            "wall_seconds_speed": round(t_speed, 1)})
-            rows.append(row)
-            print(rows[-1], flush=True)
+            for slope in args.slopes:
+                stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
+                                                 args.criterion)
+                row = {"dx": dx, "slope": slope, "cells_in_weak_layer": round(0.06 / dx, 2),
+                       "criterion": args.criterion, "overrides": " ".join(args.overrides),
+                       "a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
+                       "a_c_closed_form": round(closed_form_ac(slope), 4),
+                       "wall_seconds_ac": round(t_ac, 1)}
+                if not args.ac_only:
+                    summary, t_speed = run(args.firn, [f"grid.dx={dx}", gravity(slope),
+                                                       "cut.weak.from_x=5.4", "cut.weak.length=0.6",
+                                                       "simulation.end_time=0.25"],
+                                           os.path.join(work, f"speed-{dx}-{slope}"),
+                                           args.overrides)
+                    row.update({"steady_crack_speed": round(summary["mean_crack_speed"], 2),
+                                "propagation_distance":
+                                    round(summary["crack_propagation_distance"], 3),
+                                "particles": summary["particles"],
+                                "wall_seconds_speed": round(t_speed, 1)})
+                rows.append(row)
+                print(rows[-1], flush=True)
     with open(os.path.join(results_dir, "results.csv"), "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
