@@ -18,9 +18,10 @@ Studies:
              dx x method (transfer, CFL, particles per cell): relative error against wall time
              and particle-steps, log-log, Pareto front marked; observed orders with dx in
              convergence.csv. --quick runs APIC on V1, V2 and V7 and checks V1 within 3 %, the
-             V2 error falling with dx and within 5 %, V7 within 25 %.
+             V2 error falling with dx and within 5 %, V7 within 15 %.
   slice      V2 and V7 in 2D and as a thin 3D slice between slip walls: error and cost side by
-             side. --quick: V2 at dx 0.01, 2D and 2-cell slice agree within 1 % of c_p.
+             side; V7 also at the aspect ratios a = 0.5, 1, 2, 4 (--aspects) at dx 0.005 against
+             Lube's law. --quick: V2 at dx 0.01, 2D and 2-cell slice agree within 1 % of c_p.
   throughput build/firn_bench on elastic blocks of 7 000 to 1 900 000 particles: particle-steps
              per second with 1 thread and all threads, bytes per particle; and the same block
              at the origin, 1 km away and in a domain 8 times its volume (a sparse grid must
@@ -289,10 +290,29 @@ def wave_speed(metrics):
 # spread by the B-spline, so a fraction of a cell farther out than the particles).
 # E = 1 MPa keeps rho g H0 / E at 1.5e-3 (rigid enough) with a time step we can afford.
 COLUMN_L0, COLUMN_ASPECT = 0.1, 1.0
-COLUMN_LAW = 1.2 * COLUMN_ASPECT  # validation.md V7, a < 1.8
 
 
-def column_scene(dimension=2, width=0.0):
+def column_law(aspect):
+    """validation.md V7: 1.2 a for a < 1.8, 1.9 a^(2/3) for a > 2.8; between the two (a = 2) the
+    large-a branch, as README's V7 table (1.2 a would be 2.4 at a = 2)."""
+    return 1.2 * aspect if aspect < 1.8 else 1.9 * aspect ** (2.0 / 3.0)
+
+
+COLUMN_LAW = column_law(COLUMN_ASPECT)
+# The aspect-ratio sweep of the slice study (V7's a = 0.5 to 4), at dx 0.005 = 20 cells per
+# column width. A taller column falls for longer (time scale sqrt(H0 / g)): end_time grows as
+# sqrt(a) from a = 1, rounded up to whole frames (a = 2: 1.0 s, a = 4: 1.2 s; at dx 0.005 the
+# a = 4 deposit is at rest from 0.9 s, and 0.6 s would stop it at 92 % of its runout).
+SLICE_ASPECTS = (0.5, 1.0, 2.0, 4.0)
+SLICE_ASPECT_DX = 0.005
+
+
+def column_end_time(aspect):
+    import math
+    return round(0.2 * math.ceil(3.0 * max(1.0, aspect) ** 0.5 - 1e-9), 3)  # 5 frames/s
+
+
+def column_scene(dimension=2, width=0.0, aspect=COLUMN_ASPECT):
     v = (lambda *c: "[" + ", ".join(str(x) for x in (c if dimension == 3 else c[:2])) + "]")
     walls = [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), "sticky"), ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "slip")]
     if dimension == 3:
@@ -302,7 +322,7 @@ def column_scene(dimension=2, width=0.0):
 [simulation]
 name = "column"
 dimension = {dimension}
-end_time = 0.6
+end_time = {column_end_time(aspect)}
 frame_rate = 5
 gravity = {v(0.0, -9.81, 0.0)}
 [grid]
@@ -323,7 +343,7 @@ friction_angle = 30.0
 material = "sand"
 shape = "box"
 min = {v(0.0, 0.0, 0.0)}
-max = {v(COLUMN_L0, COLUMN_L0 * COLUMN_ASPECT, width)}
+max = {v(COLUMN_L0, round(COLUMN_L0 * aspect, 10), width)}
 [output]
 particles = false
 volumes = ["density"]
@@ -460,7 +480,8 @@ def accuracy(args, out_dir):
         path = os.path.join(out_dir, "results.csv")
         if os.path.exists(path):
             old = [r for r in read_rows(path) if r.get("case") not in cases and "case" in r]
-            rows = old + rows
+            order = list(CASES)
+            rows = sorted(old + rows, key=lambda r: order.index(r["case"]))  # stable: V1 first
     write_convergence(rows, out_dir)
     return rows
 
@@ -527,37 +548,45 @@ def write_convergence(rows, out_dir):
 SLICE_CASES = {"v2": {"scene": wave_scene, "reference": WAVE_CP,
                       "title": "V2 P-wave speed"},
                "v7": {"scene": column_scene, "reference": COLUMN_LAW,
-                      "title": "V7 column collapse a = 1: runout"}}
+                      "title": "V7 column collapse: runout"}}
 
 
 def slice_study(args, out_dir):
     if args.quick:
-        plan = [("v2", 0.01, 0), ("v2", 0.01, 2)]
+        plan = [("v2", 0.01, 0, None), ("v2", 0.01, 2, None)]
     else:
-        plan = [(case, dx, cells) for case, dxs in (("v2", (0.01, 0.005)), ("v7", (0.01, 0.005)))
+        plan = [(case, dx, cells, None if case == "v2" else COLUMN_ASPECT)
+                for case, dxs in (("v2", (0.01, 0.005)), ("v7", (0.01, 0.005)))
                 for dx in dxs for cells in (0, 2, 4)]
-        plan += [("v7", 0.0025, 0), ("v7", 0.0025, 2)]
+        plan += [("v7", 0.0025, 0, COLUMN_ASPECT), ("v7", 0.0025, 2, COLUMN_ASPECT)]
+        # V7's aspect ratios (--aspects): 2D and a 2-cell slice at dx 0.005 (a = 1 is above).
+        plan += [("v7", SLICE_ASPECT_DX, cells, a) for a in args.aspects
+                 if a != COLUMN_ASPECT for cells in (0, 2)]
     rows = []
     with tempfile.TemporaryDirectory() as work:
-        for case, dx, cells in plan:
+        for case, dx, cells, aspect in plan:
             c = SLICE_CASES[case]
             width = round(cells * dx, 10)
             model = "2D" if cells == 0 else f"3D slice, {cells} cells"
-            scene = os.path.join(work, f"{case}-{dx}-{cells}.toml")
+            scene = os.path.join(work, f"{case}-{dx}-{cells}-{aspect}.toml")
+            reference = c["reference"] if aspect is None else column_law(aspect)
             with open(scene, "w") as f:
-                f.write(c["scene"](2 if cells == 0 else 3, width))
-            out = os.path.join(work, f"{case}-{dx}-{cells}")
+                f.write(c["scene"](2 if cells == 0 else 3, width) if aspect is None else
+                        c["scene"](2 if cells == 0 else 3, width, aspect))
+            out = os.path.join(work, f"{case}-{dx}-{cells}-{aspect}")
             code, summary, metrics = run_scene(args, scene, [f"grid.dx={dx}"], out)
             value = float("nan")
             if summary["status"] == "ok":
                 value = wave_speed(metrics) if case == "v2" else column_runout(out)
-            rows.append({"case": case, "model": model, "dx": dx, "slice_cells": cells,
-                         "slice_width": width, "value": value, "reference": c["reference"],
-                         "relative_error": abs(value - c["reference"]) / c["reference"],
+            rows.append({"case": case, "aspect": "" if aspect is None else aspect, "model": model,
+                         "dx": dx, "slice_cells": cells, "slice_width": width, "value": value,
+                         "reference": reference,
+                         "relative_error": abs(value - reference) / reference,
                          "particles": summary["particles"], "steps": summary["steps"],
                          "particle_steps": summary["particles"] * summary["steps"],
                          "wall_seconds": summary["wall_seconds"], "status": summary["status"]})
-            print(f"{case} dx {dx:<6g} {model:18s}: {value:.5g} (ref {c['reference']:.5g}), "
+            label = case if aspect is None else f"{case} a {aspect:g}"
+            print(f"{label:8s} dx {dx:<6g} {model:18s}: {value:.5g} (ref {reference:.5g}), "
                   f"{summary['particles']} particles, {summary['wall_seconds']:.1f} s", flush=True)
     return rows
 
@@ -638,7 +667,7 @@ def chart_accuracy(rows, out_dir):
         return
     ok = [r for r in rows if r["status"] == "ok" and float(r["relative_error"]) > 0]
     conv = {(c["case"], c["method"]): c for c in convergence(rows)}
-    cases = list(dict.fromkeys(r["case"] for r in ok))
+    cases = [c for c in CASES if any(r["case"] == c for r in ok)]  # V1 first: all methods
     methods = list(METHODS)
     colours = {m: plt.cm.tab10(i) for i, m in enumerate(methods)}
     fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.9 * len(cases)), squeeze=False)
@@ -682,27 +711,33 @@ def chart_slice(rows, out_dir):
     except ImportError:
         print("matplotlib missing (Debian: python3-matplotlib): no chart")
         return
-    groups = list(dict.fromkeys((r["case"], float(r["dx"])) for r in rows))
+    def group_of(r):  # V7 rows carry the column's aspect ratio (older results: a = 1 only)
+        a = r.get("aspect", "")
+        return (r["case"], float(r["dx"]),
+                None if r["case"] != "v7" else float(a) if a not in ("", None) else 1.0)
+
+    groups = list(dict.fromkeys(group_of(r) for r in rows))
     models = list(dict.fromkeys(r["model"] for r in rows))
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(max(14, 1.6 * len(groups)), 4.8))
     width = 0.8 / len(models)
     for k, model in enumerate(models):
         for ax, key in zip(axes, ("ratio", "wall_seconds", "particle_steps")):
             vals = []
-            for case, dx in groups:
-                match = [r for r in rows if (r["case"], float(r["dx"])) == (case, dx)
-                         and r["model"] == model]
+            for group in groups:
+                match = [r for r in rows if group_of(r) == group and r["model"] == model]
                 r = match[0] if match else None
                 vals.append(float("nan") if r is None else float(r["value"]) / float(r["reference"])
                             if key == "ratio" else float(r[key]))
             ax.bar([g + (k - (len(models) - 1) / 2) * width for g in range(len(groups))], vals,
                    width, label=model)
-    for ax, label in zip(axes, ("measured / reference (V2: c_p; V7: Lube's 1.2 a)",
+    for ax, label in zip(axes, ("measured / reference (V2: c_p; V7: Lube's law at a)",
                                 "wall time (s, 1 thread)", "particle-steps")):
         ax.set_xticks(range(len(groups)))
-        ax.set_xticklabels([f"{c.upper()}\ndx {dx:g}" for c, dx in groups], fontsize="small")
+        ax.set_xticklabels([f"{c.upper()}" + ("" if a is None else f" a={a:g}") + f"\ndx {dx:g}"
+                            for c, dx, a in groups], fontsize="x-small")
         if label.startswith("measured"):
             ax.axhline(1.0, color="k", lw=0.8)
+            ax.axhspan(0.85, 1.15, color="grey", alpha=0.15, lw=0)  # the issue's +-15 %
             ax.set_ylim(0, 1.6)
         else:
             ax.set_yscale("log")
@@ -839,6 +874,9 @@ def main():
                         help="firn worker threads (default: firn's, all cores)")
     parser.add_argument("--cases", nargs="+", choices=list(CASES), default=None,
                         help="accuracy: run only these cases (a full run keeps the others' rows)")
+    parser.add_argument("--aspects", nargs="+", type=float, default=list(SLICE_ASPECTS),
+                        help="slice: V7 aspect ratios a = H0 / L0 at dx 0.005, 2D and a 2-cell "
+                             "slice (default 0.5 1 2 4; a = 1 also at dx 0.01 and 0.0025)")
     parser.add_argument("--chart-only", action="store_true",
                         help="redraw the charts from an existing results.csv")
     args = parser.parse_args()
@@ -865,7 +903,10 @@ def main():
              "throughput": "bench/bench_core.cc blockScene()",
              "slice": {"v2": wave_scene(), "v7": column_scene(),
                        "3D slice": "the same with dimension 3, 8 particles per cell and slip "
-                                   "walls at z = 0 and z = cells * dx"}}[args.study]
+                                   "walls at z = 0 and z = cells * dx",
+                       "v7 aspects": f"column height a * L0 for a in {list(args.aspects)}, "
+                                     "end_time 0.2 ceil(3 sqrt(max(1, a))) s, dx 0.005"}
+             }[args.study]
     with open(os.path.join(out_dir, "run.json"), "w") as f:
         json.dump({"study": args.study, "quick": args.quick, "commit": commit(),
                    "machine": platform.platform(), "processor": platform.processor(),
