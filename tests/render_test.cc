@@ -267,7 +267,8 @@ TEST_CASE("Videos come from ffmpeg when it is there, and are skipped cleanly whe
     for (const std::string& video : r.videos) CHECK(std::filesystem::file_size(video) > 1000);
 }
 
-TEST_CASE("firn render options become [render] overrides; bad ones are usage errors", "[render]") {
+TEST_CASE("firn render options become [render] overrides, and bad ones are usage errors",
+          "[render]") {
     using firn::cli::parseRenderCommand;
     const auto c = parseRenderCommand({"out/x", "--size", "640x360", "--color-by", "eta",
                                        "--camera", "1,2,3", "--look-at", "0,0,0", "--frames",

@@ -149,7 +149,7 @@ TEST_CASE("APIC transfers an affine velocity field exactly", "[transfer]") {
     }
 }
 
-TEST_CASE("APIC conserves the angular momentum of a spinning free body; PIC loses it",
+TEST_CASE("APIC conserves the angular momentum of a spinning free body, PIC loses it",
           "[transfer]") {
     for (int dim = 2; dim <= 3; ++dim) {
         const std::string shape =

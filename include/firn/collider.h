@@ -30,8 +30,11 @@ public:
     Vec3f applyBoundary(const Vec3f& v, const Vec3f& n) const;
 
     Boundary boundary() const { return mBoundary; }
-    /// The same collider with another boundary condition (the settling stage holds frictional
-    /// contacts sticky).
+    /// True for ground that carries weight under `gravity`: profiles and heightfields, and
+    /// planes that face against gravity by more than about 6 degrees (not walls or ceilings).
+    bool carriesWeight(const Vec3f& gravity) const;
+    /// The same collider with another boundary condition (the settling stage holds the ground
+    /// sticky).
     Collider withBoundary(Boundary boundary) const {
         Collider c = *this;
         c.mBoundary = boundary;

@@ -87,10 +87,11 @@ struct ParticleSet {
     /// Allocates room for n particles in every array.
     void reserve(std::size_t n);
     /// Moves the particles whose plastic flags have any bit of `flags` into a new set (their
-    /// order kept) and compacts this one. Both need bucketByLeaf before the next step.
+    /// order kept) and compacts this one in place (it keeps its capacity, so appending them
+    /// back needs no new memory). Both need bucketByLeaf before the next step.
     ParticleSet extractFlagged(std::uint32_t flags);
-    /// Appends every particle of `other` (unbucketed: call bucketByLeaf).
-    void append(const ParticleSet& other);
+    /// Moves every particle of `other` to the end of this set (unbucketed: call bucketByLeaf).
+    void append(ParticleSet&& other);
 
 private:
     std::vector<std::uint32_t> mOrder;   // scratch: gather order of the last bucketing

@@ -42,8 +42,9 @@ struct SettleParams {
 /// Dynamic relaxation of the world under full gravity (Cundall's kinetic damping: every time
 /// the total kinetic energy passes a peak, all velocities are set to zero, which removes the
 /// energy of the slowest mode at its equilibrium crossing). During settling every material is
-/// elastic (nothing can fail while it loads) and frictional contacts are sticky (a block on a
-/// slope steeper than its friction angle settles in place and starts to slide at t = 0). Ends
+/// elastic (nothing can fail while it loads) and the ground is sticky, whatever its boundary
+/// condition (a block on a slope steeper than its friction angle, or on a slip plane, settles in
+/// place and starts to slide at t = 0); walls (planes facing sideways) keep theirs. Ends
 /// when a kinetic-energy peak is below `tolerance` x the elastic energy, or after `maxTime`.
 /// Afterwards velocities are zero, time and step count restart at 0, the materials' plasticity
 /// is applied once to the settled stress, and the particles it yields are reported: their

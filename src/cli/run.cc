@@ -241,8 +241,29 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     removeOldFrames(result.outDir + "/frames");
     writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
 
-    std::unique_ptr<World> world =
-        buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
+    std::unique_ptr<World> world;
+    try {
+        world = buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
+    } catch (const SimulationError& e) {
+        // Settling went unstable (a time step too large for the scene): no frame to keep, but
+        // the summary says what happened, as for an unstable run.
+        result.status = "unstable";
+        result.message = std::string("unstable while settling before t = 0: ") + e.what();
+        MetricsWriter(result.outDir + "/metrics.csv", kMetricColumns); // the header, no rows
+        JsonObject j;
+        j.set("scene", scene.path);
+        j.set("dimension", scene.simulation.dimension);
+        j.set("steps", 0);
+        j.set("frames", 0);
+        j.set("end_time", 0.0);
+        j.set("wall_seconds", 0.0);
+        j.setBool("settle", true);
+        j.setBool("settle_converged", false);
+        j.set("status", result.status);
+        j.set("message", result.message);
+        writeFileAtomic(result.outDir + "/summary.json", j.str());
+        return result;
+    }
     if (world->settle.ran && !options.quiet)
         std::fprintf(
             stderr, "settled under gravity in %.3g s (%lld steps, %.1f s wall)%s%s\n",

@@ -87,6 +87,12 @@ Vec3f Collider::normal(const Vec3f& x) const {
     return Vec3f(-seg[1], seg[0], 0.f).normalized();
 }
 
+bool Collider::carriesWeight(const Vec3f& gravity) const {
+    if (mShape != TerrainShape::Plane) return true; // a height function: ground
+    const float g = gravity.norm();
+    return g > 0.f && -mNormal.dot(gravity) > 0.1f * g;
+}
+
 Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const {
     if (mBoundary == Boundary::Sticky) return Vec3f::Zero();
     const float vn = v.dot(n);

@@ -68,9 +68,29 @@ void ParticleSet::reserve(std::size_t n) {
     mass.reserve(n), volume0.reserve(n), material.reserve(n), plastic.reserve(n);
 }
 
+namespace {
+
+/// Exchanges the particle arrays of two sets (leaves and scratch stay).
+void swapArrays(ParticleSet& a, ParticleSet& b) {
+    a.x.swap(b.x), a.v.swap(b.v), a.C.swap(b.C), a.H.swap(b.H), a.tau.swap(b.tau);
+    a.mass.swap(b.mass), a.volume0.swap(b.volume0), a.material.swap(b.material);
+    a.plastic.swap(b.plastic);
+}
+
+} // namespace
+
 ParticleSet ParticleSet::extractFlagged(std::uint32_t flags) {
     ParticleSet out;
     out.dim = dim, out.dx = dx;
+    std::size_t flagged = 0;
+    for (const PlasticState& s : plastic) flagged += (s.flags & flags) != 0;
+    leaves.clear(), leafStart.clear(), leafQuietSteps.clear(), leafSleep.clear(), leafPush.clear();
+    if (flagged == 0) return out;
+    if (flagged == size()) { // all of them: hand the arrays over, no copy
+        swapArrays(*this, out);
+        return out;
+    }
+    out.reserve(flagged);
     std::size_t kept = 0;
     for (std::size_t i = 0; i < size(); ++i) {
         if (plastic[i].flags & flags) {
@@ -87,20 +107,25 @@ ParticleSet ParticleSet::extractFlagged(std::uint32_t flags) {
     }
     x.resize(kept), v.resize(kept), C.resize(kept), H.resize(kept), tau.resize(kept);
     mass.resize(kept), volume0.resize(kept), material.resize(kept), plastic.resize(kept);
-    leaves.clear(), leafStart.clear(), leafQuietSteps.clear(), leafSleep.clear(), leafPush.clear();
     return out;
 }
 
-void ParticleSet::append(const ParticleSet& other) {
-    x.insert(x.end(), other.x.begin(), other.x.end());
-    v.insert(v.end(), other.v.begin(), other.v.end());
-    C.insert(C.end(), other.C.begin(), other.C.end());
-    H.insert(H.end(), other.H.begin(), other.H.end());
-    tau.insert(tau.end(), other.tau.begin(), other.tau.end());
-    mass.insert(mass.end(), other.mass.begin(), other.mass.end());
-    volume0.insert(volume0.end(), other.volume0.begin(), other.volume0.end());
-    material.insert(material.end(), other.material.begin(), other.material.end());
-    plastic.insert(plastic.end(), other.plastic.begin(), other.plastic.end());
+void ParticleSet::append(ParticleSet&& other) {
+    if (size() == 0) {
+        swapArrays(*this, other);
+    } else {
+        // Fits in the capacity left by extractFlagged: no second copy of the state.
+        x.insert(x.end(), other.x.begin(), other.x.end());
+        v.insert(v.end(), other.v.begin(), other.v.end());
+        C.insert(C.end(), other.C.begin(), other.C.end());
+        H.insert(H.end(), other.H.begin(), other.H.end());
+        tau.insert(tau.end(), other.tau.begin(), other.tau.end());
+        mass.insert(mass.end(), other.mass.begin(), other.mass.end());
+        volume0.insert(volume0.end(), other.volume0.begin(), other.volume0.end());
+        material.insert(material.end(), other.material.begin(), other.material.end());
+        plastic.insert(plastic.end(), other.plastic.begin(), other.plastic.end());
+    }
+    other = ParticleSet{};
 }
 
 namespace {

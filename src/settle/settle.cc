@@ -25,8 +25,9 @@ void stopAll(ParticleSet& ps) {
     std::fill(ps.C.begin(), ps.C.end(), Mat3f::Zero());
 }
 
-/// What the world looks like while it settles: elastic materials, sticky instead of
-/// frictional contacts, full gravity, nothing asleep. Restored on destruction, so that an
+/// What the world looks like while it settles: elastic materials, the ground (terrain that
+/// carries weight, whatever its boundary condition) sticky, walls as they are, full gravity,
+/// nothing asleep. Restored on destruction, so that an
 /// exception leaves the world as the scene describes it.
 class SettlingConditions {
 public:
@@ -38,7 +39,7 @@ public:
         , mGravityRamp(w.gravityRamp) {
         for (Material& m : w.materials) m.model = MaterialModel::Elastic;
         for (Collider& c : w.colliders)
-            if (c.boundary() == Boundary::Friction) c = c.withBoundary(Boundary::Sticky);
+            if (c.carriesWeight(w.gravity)) c = c.withBoundary(Boundary::Sticky);
         w.sleep = false;
         w.gravityRamp = 0.f;
     }

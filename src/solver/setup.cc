@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <unordered_set>
+#include <utility>
 
 namespace firn {
 
@@ -322,12 +323,12 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
     }
     if (stage == BuildStage::Settled && scene.simulation.settle) {
         // Bodies seeded moving are not at rest: they wait outside while the rest settles.
-        const ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
+        ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
         w.particles.bucketByLeaf();
         w.settle =
             settleUnderGravity(w, SettleParams{scene.simulation.settleMaxTime,
                                                scene.simulation.settleTolerance, interrupted});
-        w.particles.append(moving);
+        w.particles.append(std::move(moving));
     }
     // The saw cuts a snowpack at rest (after settling): the cut's particles go now.
     w.particles.extractFlagged(kFlagInCut);

@@ -186,7 +186,7 @@ TEST_CASE("Settling: a block at a stick angle starts at rest and stays there, E 
     CHECK((centreOfMass(*w) - start).norm() > 5e-5f);
 }
 
-TEST_CASE("Settling: a weak layer at 80 % of its strength holds; a long cut releases the slab",
+TEST_CASE("Settling: a weak layer at 80 % of its strength holds, and a long cut releases the slab",
           "[validation][settle][pst]") {
     auto w = buildWorld(test::sceneFromText(slabOnSlope(0.0, true)));
     const double ratio = weakLayerLoadRatio(*w);
