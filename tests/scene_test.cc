@@ -496,3 +496,16 @@ TEST_CASE("[render] errors name the key", "[scene][errors]") {
                     "\"eta\", got \"velocity\"") != std::string::npos);
     CHECK(errorOf(kMinimal, {"render.width=3"}).find("render.width") != std::string::npos);
 }
+
+TEST_CASE("Settling is on by default, off with a gravity ramp, and not both", "[scene][errors]") {
+    CHECK(parseScene("[simulation]\nname = \"a\"\n", kPath).simulation.settle);
+    const SceneDesc ramped = parseScene("[simulation]\ngravity_ramp = 0.1\n", kPath);
+    CHECK_FALSE(ramped.simulation.settle);
+    CHECK(ramped.simulation.gravityRamp == 0.1);
+    CHECK_FALSE(parseScene("[simulation]\nsettle = false\n", kPath).simulation.settle);
+    CHECK(errorOf("[simulation]\ngravity_ramp = 0.1\nsettle = true\n") ==
+          "scenes/test.toml:3:10: error: simulation.settle: settle = true and gravity_ramp > 0 "
+          "are two ways to start a scene at rest; give one of them");
+    CHECK(errorOf("[simulation]\nsettle_max_time = 0.0\n") ==
+          "scenes/test.toml:2:19: error: simulation.settle_max_time: must be > 0, got 0");
+}
