@@ -2,6 +2,7 @@
 #include <firn/solver.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -229,38 +230,51 @@ std::vector<bool> restingBodies(const SceneDesc& scene, const World& world,
     const std::size_t bodies = scene.bodies.size();
     const int dim = world.dim;
     const float dx = world.dx;
-    auto cellKey = [&](const Vec3f& p, int ox, int oy, int oz) {
-        const std::int64_t i = std::int64_t(std::floor(p[0] / dx)) + ox;
-        const std::int64_t j = std::int64_t(std::floor(p[1] / dx)) + oy;
-        const std::int64_t k = dim == 3 ? std::int64_t(std::floor(p[2] / dx)) + oz : 0;
+    auto cellOf = [&](const Vec3f& p) {
+        return std::array<std::int64_t, 3>{std::int64_t(std::floor(p[0] / dx)),
+                                           std::int64_t(std::floor(p[1] / dx)),
+                                           dim == 3 ? std::int64_t(std::floor(p[2] / dx)) : 0};
+    };
+    auto key = [](std::int64_t i, std::int64_t j, std::int64_t k) {
         return ((i & 0x1fffff) << 42) | ((j & 0x1fffff) << 21) | (k & 0x1fffff);
     };
     std::vector<bool> resting(bodies, false), moving(bodies, false);
-    std::vector<std::unordered_set<std::int64_t>> cells(bodies);
+    std::vector<std::vector<std::array<std::int64_t, 3>>> cells(bodies); // occupied, per body
+    std::vector<std::unordered_set<std::int64_t>> seen(bodies);
     for (std::size_t b = 0; b < bodies; ++b)
         moving[b] = scene.bodies[b].velocity != Vec3d{0.0, 0.0, 0.0};
     const ParticleSet& ps = world.particles;
     for (std::size_t i = 0; i < ps.size(); ++i) {
         const std::uint32_t b = bodyOf[i];
-        cells[b].insert(cellKey(ps.x[i], 0, 0, 0));
+        const auto c = cellOf(ps.x[i]);
+        if (seen[b].insert(key(c[0], c[1], c[2])).second) cells[b].push_back(c);
         if (!moving[b] && !resting[b] && groundDistance(world.colliders, ps.x[i]) < dx)
             resting[b] = true;
     }
+    // Grow the resting set through touching bodies: one set of the resting bodies' cells.
+    std::unordered_set<std::int64_t> restingCells;
+    for (std::size_t b = 0; b < bodies; ++b)
+        if (resting[b])
+            for (const auto& c : cells[b]) restingCells.insert(key(c[0], c[1], c[2]));
     const int nz = dim == 3 ? 1 : 0;
+    auto touchesResting = [&](const std::array<std::int64_t, 3>& c) {
+        for (int ox = -1; ox <= 1; ++ox)
+            for (int oy = -1; oy <= 1; ++oy)
+                for (int oz = -nz; oz <= nz; ++oz)
+                    if (restingCells.count(key(c[0] + ox, c[1] + oy, c[2] + oz))) return true;
+        return false;
+    };
     for (bool grew = true; grew;) {
         grew = false;
         for (std::size_t b = 0; b < bodies; ++b) {
             if (resting[b] || moving[b]) continue;
-            for (std::size_t i = 0; i < ps.size() && !resting[b]; ++i) {
-                if (bodyOf[i] != b) continue;
-                for (int ox = -1; ox <= 1 && !resting[b]; ++ox)
-                    for (int oy = -1; oy <= 1 && !resting[b]; ++oy)
-                        for (int oz = -nz; oz <= nz && !resting[b]; ++oz)
-                            for (std::size_t o = 0; o < bodies && !resting[b]; ++o)
-                                resting[b] = o != b && resting[o] &&
-                                             cells[o].count(cellKey(ps.x[i], ox, oy, oz));
-            }
-            grew = grew || resting[b];
+            for (const auto& c : cells[b])
+                if (touchesResting(c)) {
+                    resting[b] = grew = true;
+                    break;
+                }
+            if (resting[b])
+                for (const auto& c : cells[b]) restingCells.insert(key(c[0], c[1], c[2]));
         }
     }
     return resting;
