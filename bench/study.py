@@ -73,7 +73,8 @@ particles = false
 volumes = []
 """
 
-# A cohesive Cam-Clay snow slab (snow-model.md defaults, E 1 MPa) sliding down a 35 degree
+# A cohesive Cam-Clay snow slab (the former scene-format.md defaults, E 1 MPa, given in full now
+# that a snow material's missing keys come from the snow parameter table) sliding down a 35 degree
 # plane (mu 0.2): the second stability case, with plasticity and a free surface in motion.
 SNOW_SLAB = """
 [simulation]
@@ -92,6 +93,10 @@ model = "snow"
 density = 250.0
 youngs_modulus = 1.0e6
 poisson_ratio = 0.2
+critical_state_slope = 1.0
+cohesion_ratio = 0.3
+initial_p0 = 2.0e4
+hardening = 5.0
 [[terrain]]
 shape = "plane"
 point = [0.0, 0.0]

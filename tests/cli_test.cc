@@ -542,6 +542,67 @@ TEST_CASE("firn check prints particles and dx and a step estimate that --set cha
     CHECK(longer.steps == Approx(2.0 * base.steps).epsilon(1e-3));
 }
 
+// A PST-like slab on a weak layer, both given by density alone (snow parameter table).
+const std::string kDensityOnly = R"([simulation]
+name = "table"
+dimension = 2
+
+[grid]
+dx = 0.05
+
+[[material]]
+name = "slab"
+model = "snow"
+density = 250.0
+
+[[material]]
+name = "weak"
+model = "weak_layer"
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+
+[[body]]
+name = "weak"
+material = "weak"
+shape = "layer"
+thickness = 0.1
+x_range = [0.0, 1.0]
+
+[[body]]
+material = "slab"
+shape = "layer"
+on_top_of = "weak"
+thickness = 0.3
+x_range = [0.0, 1.0]
+)";
+
+TEST_CASE("firn check prints each material's values and where each came from",
+          "[cli][snow_parameters]") {
+    TempDir dir("firn-cli-table");
+    const std::string path = dir.path() + "/table.toml";
+    writeText(path, kDensityOnly);
+    const Outcome o = runFirn({"check", path, "--set", "material.weak.softening=50"}, dir);
+    INFO(o.out << o.err);
+    REQUIRE(o.code == 0);
+    auto shows = [&](const std::string& line) {
+        return std::regex_search(o.out, std::regex("\\n    " + line + "\\n"));
+    };
+    CHECK(o.out.find("  material \"slab\" (snow):\n") != std::string::npos);
+    CHECK(shows("density +250 kg/m\\^3 +scene file line 11"));
+    CHECK(shows("youngs_modulus +4\\.816e\\+06 Pa +table: E = 0\\.93 rho\\^2\\.8 Pa, "
+                "van Herwijnen et al\\. 2016 \\(J\\. Glaciol\\. 62:997\\)"));
+    CHECK(shows("initial_p0 +2\\.244e\\+04 Pa +table: p0 on the ellipse \\(beta, M\\) from "
+                "sigma_t = 240 kPa \\(rho/917\\)\\^2\\.44, Sigrist 2006 \\(ETH thesis\\)"));
+    CHECK(shows("hardening +0\\.5 +table: Firn PST calibration, README Snow"));
+    CHECK(o.out.find("  material \"weak\" (weak_layer):\n") != std::string::npos);
+    CHECK(shows("density +100 kg/m\\^3 +default"));
+    CHECK(shows("initial_p0 +6900 Pa +table: .*Firn PST calibration at 100 kg/m\\^3.*"));
+    CHECK(shows("softening +50 +--set"));
+}
+
 TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame", "[cli]") {
     TempDir dir("firn-cli-run");
     const std::string scene = dir.path() + "/tiny.toml";

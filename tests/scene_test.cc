@@ -1,6 +1,7 @@
 // Scene parsing: every field of a full 2D and 3D scene, then one test per class of error with
 // its exact message, line and column included (as Mitsuba's parser tests do).
 #include <firn/scene.h>
+#include <firn/snow_parameters.h>
 
 #include <catch2/catch.hpp>
 
@@ -195,10 +196,10 @@ TEST_CASE("A full 3D scene fills every field", "[scene]") {
     const MaterialDesc& weak = scene.materials[1];
     CHECK(weak.model == MaterialModel::WeakLayer);
     CHECK(weak.density == 150.0);
-    CHECK(weak.youngsModulus == 1.0e6); // default
+    CHECK(weak.youngsModulus == weakLayerTable(150.0).youngsModulus.value); // from the table
     CHECK(weak.softening == 0.5);
     CHECK(weak.dynamicCriticalStateSlope == 0.9);
-    CHECK(weak.criticalStateSlope == 1.0); // default
+    CHECK(weak.criticalStateSlope == 0.85); // from the table
     CHECK(scene.materials[2].model == MaterialModel::Granular);
     CHECK(scene.materials[2].frictionAngle == 35.0);
     CHECK(scene.materials[3].model == MaterialModel::Elastic);

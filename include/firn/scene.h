@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -56,7 +57,9 @@ struct GridDesc {
     int sleepSteps = 100;
 };
 
-/// [[material]]; defaults are those of scene-format.md.
+/// [[material]]; defaults are those of scene-format.md. For `snow` and `weak_layer` the scene
+/// reader replaces them with the snow parameter table at the material's density
+/// (firn/snow_parameters.h); the values below are then only those of a MaterialDesc built in code.
 struct MaterialDesc {
     std::string name;
     MaterialModel model = MaterialModel::Elastic;
@@ -71,7 +74,22 @@ struct MaterialDesc {
     double dynamicCriticalStateSlope = 1.2; ///< M_d (weak layer)
     double frictionAngle = 30.0;            ///< degrees (granular)
     SourceLoc loc;
+    /// Where each parameter's value came from, by scene key: "scene file line 12", "--set",
+    /// "table: <law, citation>" or "default" (a key absent here is "default").
+    std::map<std::string, std::string> origins;
 };
+
+/// One material parameter as `firn check` shows it.
+struct MaterialParameter {
+    const char* key;  ///< scene key, "youngs_modulus"
+    double value;     ///< as the simulation uses it
+    const char* unit; ///< "Pa", "kg/m^3", "" for ratios, "degrees"
+    std::string origin;
+};
+
+/// The parameters `material`'s model uses, in the order of the scene reference, with their
+/// values and origins.
+std::vector<MaterialParameter> materialParameters(const MaterialDesc& material);
 
 /// [[terrain]]
 struct TerrainDesc {

@@ -16,6 +16,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <iomanip>
 #include <sstream>
 
 namespace firn {
@@ -315,6 +316,19 @@ RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
     return result;
 }
 
+/// One material's parameters as the simulation will use them, and where each came from.
+std::string describeMaterial(const MaterialDesc& material) {
+    std::ostringstream out;
+    out << "  material \"" << material.name << "\" (" << toString(material.model) << "):\n";
+    for (const MaterialParameter& p : materialParameters(material)) {
+        std::ostringstream value;
+        value << std::setprecision(4) << p.value << (*p.unit ? " " : "") << p.unit;
+        out << "    " << std::left << std::setw(30) << p.key << std::setw(16) << value.str()
+            << p.origin << "\n";
+    }
+    return out.str();
+}
+
 std::string describeScene(const SceneDesc& scene) {
     std::unique_ptr<World> world = buildWorld(scene, BuildStage::Seeded);
     std::ostringstream out;
@@ -322,6 +336,7 @@ std::string describeScene(const SceneDesc& scene) {
         << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
         << scene.grid.particlesPerCell << " particles per cell, transfer "
         << toString(scene.grid.transfer) << "\n";
+    for (const MaterialDesc& material : scene.materials) out << describeMaterial(material);
     for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
         const BodyDesc& body = scene.bodies[b];
         out << "  body " << b + 1 << (body.name.empty() ? "" : " \"" + body.name + "\"") << " ("

@@ -2,6 +2,7 @@
 // One small reader per table; every key goes through a TableReader, which checks its type and
 // range and reports any key nobody asked for.
 #include <firn/scene.h>
+#include <firn/snow_parameters.h>
 
 #include "overrides.h"
 #include "reader.h"
@@ -46,21 +47,23 @@ struct MaterialField {
     double MaterialDesc::*member;
     Range range;
     unsigned models;
+    const char* unit;
 };
 
-// The material parameters of scene-format.md; their defaults and units are in MaterialDesc.
+// The material parameters of scene-format.md; their defaults are in MaterialDesc, and for snow
+// and weak layers in the snow parameter table (firn/snow_parameters.h).
 const MaterialField kMaterialFields[] = {
-    {"density", &MaterialDesc::density, Range::positive(), kAllModels},
-    {"youngs_modulus", &MaterialDesc::youngsModulus, Range::positive(), kAllModels},
-    {"poisson_ratio", &MaterialDesc::poissonRatio, Range::closedOpen(0.0, 0.5), kAllModels},
-    {"critical_state_slope", &MaterialDesc::criticalStateSlope, Range::positive(), kCamClay},
-    {"cohesion_ratio", &MaterialDesc::cohesionRatio, Range::nonNegative(), kCamClay},
-    {"initial_p0", &MaterialDesc::initialP0, Range::positive(), kCamClay},
-    {"hardening", &MaterialDesc::hardening, Range::positive(), kCamClay},
-    {"softening", &MaterialDesc::softening, Range::nonNegative(), kWeakLayer},
+    {"density", &MaterialDesc::density, Range::positive(), kAllModels, "kg/m^3"},
+    {"youngs_modulus", &MaterialDesc::youngsModulus, Range::positive(), kAllModels, "Pa"},
+    {"poisson_ratio", &MaterialDesc::poissonRatio, Range::closedOpen(0.0, 0.5), kAllModels, ""},
+    {"critical_state_slope", &MaterialDesc::criticalStateSlope, Range::positive(), kCamClay, ""},
+    {"cohesion_ratio", &MaterialDesc::cohesionRatio, Range::nonNegative(), kCamClay, ""},
+    {"initial_p0", &MaterialDesc::initialP0, Range::positive(), kCamClay, "Pa"},
+    {"hardening", &MaterialDesc::hardening, Range::positive(), kCamClay, ""},
+    {"softening", &MaterialDesc::softening, Range::nonNegative(), kWeakLayer, ""},
     {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope, Range::positive(),
-     kWeakLayer},
-    {"friction_angle", &MaterialDesc::frictionAngle, Range::open(0.0, 90.0), kGranular},
+     kWeakLayer, ""},
+    {"friction_angle", &MaterialDesc::frictionAngle, Range::open(0.0, 90.0), kGranular, "degrees"},
 };
 
 // Keys that belong to one shape only; any other shape rejects them.
@@ -159,6 +162,69 @@ void readGrid(TableReader& r, GridDesc& grid) {
     r.finish();
 }
 
+bool usesField(MaterialModel model, const MaterialField& field) {
+    return field.models & (1u << static_cast<unsigned>(model));
+}
+
+// "scene file line 12", or "--set" for a value given on the command line.
+std::string originOf(const TableReader& r, std::string_view key) {
+    const SourceLoc loc = r.locOf(*r.table().get(key));
+    return loc.line > 0 ? "scene file line " + std::to_string(loc.line) : loc.file;
+}
+
+// A parameter of the snow table and the MaterialDesc field it fills.
+struct TableField {
+    const char* key;
+    double MaterialDesc::*member;
+    const TableValue& value;
+};
+
+bool given(const MaterialDesc& m, const char* key) {
+    return m.origins.count(key) > 0;
+}
+
+// A snow or weak-layer material takes every key its scene leaves out from the snow parameter
+// table at its density (default: the table's reference density). Outside the table's density
+// range that is an error, unless the scene gives every value that depends on density.
+void applySnowTable(const TableReader& r, MaterialDesc& m) {
+    const bool slab = m.model == MaterialModel::Snow;
+    if (!given(m, "density")) m.density = slab ? kSlabReferenceDensity : kWeakLayerReferenceDensity;
+    const SnowParameterTable table = slab ? slabTable(m.density) : weakLayerTable(m.density);
+    std::string needed;
+    for (const char* key : {"youngs_modulus", "initial_p0"}) {
+        if (!given(m, key)) needed += (needed.empty() ? "" : " and ") + std::string(key);
+    }
+    if (!needed.empty() && !table.validDensity.contains(m.density)) {
+        r.failAt("density", formatNumber(m.density) +
+                                " kg/m^3 is outside the snow parameter table's " +
+                                formatNumber(table.validDensity.lo) + "-" +
+                                formatNumber(table.validDensity.hi) + " kg/m^3 for model " +
+                                inQuotes(toString(m.model)) + ", which would give " + needed +
+                                "; give them in the scene or a density inside that range");
+    }
+    const TableField fields[] = {
+        {"youngs_modulus", &MaterialDesc::youngsModulus, table.youngsModulus},
+        {"poisson_ratio", &MaterialDesc::poissonRatio, table.poissonRatio},
+        {"critical_state_slope", &MaterialDesc::criticalStateSlope, table.criticalStateSlope},
+        {"cohesion_ratio", &MaterialDesc::cohesionRatio, table.cohesionRatio},
+        {"hardening", &MaterialDesc::hardening, table.hardening},
+        {"softening", &MaterialDesc::softening, table.softening},
+        {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope,
+         table.dynamicCriticalStateSlope},
+    };
+    for (const TableField& field : fields) {
+        if (given(m, field.key) || field.value.source.empty()) continue;
+        m.*field.member = field.value.value;
+        m.origins[field.key] = "table: " + field.value.source;
+    }
+    // After beta and M: p0 gives the table's tensile strength with the material's own ellipse.
+    if (!given(m, "initial_p0")) {
+        const TableValue p0 = initialP0FromTable(table, m.cohesionRatio, m.criticalStateSlope);
+        m.initialP0 = p0.value;
+        m.origins["initial_p0"] = "table: " + p0.source;
+    }
+}
+
 MaterialDesc readMaterial(TableReader& r, const std::vector<MaterialDesc>& earlier) {
     MaterialDesc m;
     m.loc = r.headerLoc();
@@ -166,14 +232,16 @@ MaterialDesc readMaterial(TableReader& r, const std::vector<MaterialDesc>& earli
     r.string("name", m.name);
     checkUniqueName(r, m.name, earlier, "material");
     r.choice("model", m.model, kModels);
-    const unsigned modelBit = 1u << static_cast<unsigned>(m.model);
     const std::string why = "model " + inQuotes(toString(m.model));
     for (const auto& field : kMaterialFields) {
-        if (field.models & modelBit) {
-            r.real(field.key, m.*field.member, field.range);
-        } else {
+        if (!usesField(m.model, field)) {
             r.notApplicable(field.key, why);
+        } else if (r.real(field.key, m.*field.member, field.range)) {
+            m.origins[field.key] = originOf(r, field.key);
         }
+    }
+    if (m.model == MaterialModel::Snow || m.model == MaterialModel::WeakLayer) {
+        applySnowTable(r, m);
     }
     r.finish();
     return m;
@@ -444,6 +512,17 @@ SceneDesc loadScene(const std::string& path, const std::vector<std::string>& ove
     std::ostringstream text;
     text << in.rdbuf();
     return parseScene(text.str(), path, overrides);
+}
+
+std::vector<MaterialParameter> materialParameters(const MaterialDesc& material) {
+    std::vector<MaterialParameter> parameters;
+    for (const auto& field : scene::kMaterialFields) {
+        if (!scene::usesField(material.model, field)) continue;
+        const auto origin = material.origins.find(field.key);
+        parameters.push_back({field.key, material.*field.member, field.unit,
+                              origin == material.origins.end() ? "default" : origin->second});
+    }
+    return parameters;
 }
 
 const char* toString(ColorBy colorBy) {
