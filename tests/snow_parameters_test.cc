@@ -241,6 +241,9 @@ TEST_CASE("A density outside the table is an error unless the scene gives what d
           "scenes/test.toml:7:11: error: material \"weak\": density: 250 kg/m^3 is outside the "
           "snow parameter table's 60-200 kg/m^3 for model \"weak_layer\", which would give "
           "youngs_modulus; give them in the scene or a density inside that range");
+    CHECK(errorOf("[[material]]\nname = \"slab\"\nmodel = \"snow\"\ncohesion_ratio = 0\n") ==
+          "scenes/test.toml:7:18: error: material \"slab\": cohesion_ratio: 0 leaves the ellipse "
+          "no tensile strength, so initial_p0 cannot follow from the table's; give initial_p0");
     const SceneDesc given = parse("[[material]]\nname = \"slab\"\nmodel = \"snow\"\n"
                                   "density = 550\nyoungs_modulus = 2e7\ninitial_p0 = 1e5\n");
     CHECK(given.materials[0].hardening == 0.5); // density-free values still from the table

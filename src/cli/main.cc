@@ -55,8 +55,10 @@ options:
 
 const char* kCheckHelp = R"(usage: firn check SCENE.toml [--set key=value ...]
 
-Parses and validates the scene without running it and prints the particles per material, the
-grid spacing, the time step and the estimated number of steps. Exit code 1 on any scene error.
+Parses and validates the scene without running it and prints each material's parameters with
+where each came from (scene file line, --set, the snow parameter table, or a default), the
+particles per body, the grid spacing, the time step and the estimated number of steps.
+Exit code 1 on any scene error.
 )";
 
 const char* kReportHelp = R"(usage: firn report OUT_DIR [--times t1,t2,...] [--quiet]

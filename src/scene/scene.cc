@@ -219,6 +219,10 @@ void applySnowTable(const TableReader& r, MaterialDesc& m) {
     }
     // After beta and M: p0 gives the table's tensile strength with the material's own ellipse.
     if (!given(m, "initial_p0")) {
+        if (m.cohesionRatio == 0.0) {
+            r.failAt("cohesion_ratio", "0 leaves the ellipse no tensile strength, so initial_p0 "
+                                       "cannot follow from the table's; give initial_p0");
+        }
         const TableValue p0 = initialP0FromTable(table, m.cohesionRatio, m.criticalStateSlope);
         m.initialP0 = p0.value;
         m.origins["initial_p0"] = "table: " + p0.source;
