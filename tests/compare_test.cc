@@ -334,3 +334,18 @@ TEST_CASE("Runs of different scenes are refused naming the keys, and --force com
     CHECK(missing.code == 3);
     CHECK(missing.err.find("nowhere") != std::string::npos);
 }
+
+TEST_CASE("firn compare --help lists every option, the tolerances and the exit codes",
+          "[compare]") {
+    TempDir dir("firn-compare-help");
+    const Outcome o = runFirn(dir, "compare --help");
+    CHECK(o.code == 0);
+    for (const char* word : {"--out", "--force", "--tolerance", "abs:", "--color-by",
+                             "--color-range", "--size", "--frame-step", "--threads", "--quiet",
+                             "alpha_angle_deg", "pixels", "5 a figure moved"}) {
+        INFO(word);
+        CHECK(o.out.find(word) != std::string::npos);
+    }
+    CHECK(runFirn(dir, "--help").out.find("firn compare RUN_A RUN_B") != std::string::npos);
+    CHECK(runFirn(dir, "compare onlyone").code == 1);
+}
