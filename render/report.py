@@ -74,10 +74,12 @@ def read_json(path):
 class Run:
     """Everything the charts draw from, read once."""
 
-    def __init__(self, out_dir):
+    def __init__(self, out_dir, data_dir=None):
+        """data_dir: where `firn report` (or `firn compare`) wrote the tables; default
+        OUT_DIR/report/data."""
         self.out_dir = pathlib.Path(out_dir)
         self.report_dir = self.out_dir / "report"
-        data = self.report_dir / "data"
+        data = pathlib.Path(data_dir) if data_dir else self.report_dir / "data"
         self.metrics = read_csv(self.out_dir / "metrics.csv")
         self.summary = read_json(self.out_dir / "summary.json")
         self.info = read_json(data / "report.json")

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -88,7 +89,27 @@ struct RenderOptions {
     bool video = true;  ///< MP4 and GIF with ffmpeg, when it is installed
     bool quiet = false; ///< no progress line on stderr
     std::string ffmpeg = "ffmpeg";
+    /// Where the PNGs, contact sheet and render.json go; empty: OUT_DIR/render.
+    std::string directory;
+    /// A camera that replaces the one of `view` (`firn compare` frames two runs with one).
+    std::optional<Camera> camera;
+    /// kg/m^3, the density at which snow looks opaque; 0: the densest voxel of the frames.
+    /// Two runs drawn with the same value look alike where their snow is alike.
+    double opaqueDensity = 0.0;
 };
+
+/// What a volume cache spans over the frames that `options` selects.
+struct VolumeCacheExtent {
+    Box3 box;                ///< world bounds of the density over the frames
+    double maxValue = 0.0;   ///< largest value of the colour quantity (speed, eta, density)
+    double maxDensity = 0.0; ///< kg/m^3
+    double dx = 0.0;         ///< voxel size, m
+};
+
+/// Reads OUT_DIR/frames/volume.NNNN.vdb (the frames `options` selects) for the bounds and
+/// ranges that the automatic camera and colour range come from. Throws IoError like
+/// renderOutput.
+VolumeCacheExtent scanVolumeCache(const std::string& outDir, const RenderOptions& options);
 
 struct RenderResult {
     int frames = 0;
@@ -99,7 +120,8 @@ struct RenderResult {
     std::vector<std::string> videos; ///< written animation files; empty without ffmpeg
 };
 
-/// Renders OUT_DIR/frames/volume.NNNN.vdb to OUT_DIR/render/frame.NNNN.png with the terrain of
+/// Renders OUT_DIR/frames/volume.NNNN.vdb to OUT_DIR/render/frame.NNNN.png (or
+/// options.directory) with the terrain of
 /// OUT_DIR/terrain.vdb (when there), then contact.png, render.json and, with ffmpeg, the videos.
 /// Throws IoError (missing or unreadable cache, a grid the colour needs is not in the cache).
 RenderResult renderOutput(const std::string& outDir, const RenderOptions& options);

@@ -14,6 +14,11 @@ struct ReportOptions {
     bool quiet = false;        ///< no progress output
 };
 
+/// Writes the tables behind the report's charts (weak_layer.csv, map_frames.csv, report.json)
+/// into `dataDir`, without drawing them. Returns the failure maps' times (s), so that another
+/// run can be mapped at the same times (`firn compare`). Throws like writeReport.
+std::vector<double> writeReportTables(const ReportOptions& options, const std::string& dataDir);
+
 /// Writes OUT_DIR/report/data/*.csv and report.json, then runs render/report.py, which writes
 /// OUT_DIR/report/*.png and report.html. Returns report.html's path. Throws IoError (missing or
 /// unreadable files, the script failing) or SceneError (bad scene.toml, a time outside the run).

@@ -1,10 +1,12 @@
 // firn: run, check scenes. Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable,
-// 3 I/O error, 4 internal error (a bug: please report), 130 interrupted (SIGINT/SIGTERM).
+// 3 I/O error, 4 internal error (a bug: please report), 5 `firn compare`: a figure moved beyond
+// its tolerance, 130 interrupted (SIGINT/SIGTERM).
 #include <firn/errors.h>
 #include <firn/report.h>
 #include <firn/run.h>
 #include <firn/scene.h>
 
+#include "compare_command.h"
 #include "render_command.h"
 
 #include <algorithm>
@@ -23,6 +25,8 @@ usage:
   firn check SCENE.toml [--set key=value ...]
   firn render OUT_DIR [--color-by Q] [--frames A:B] [--size WxH] [more: firn render --help]
   firn report OUT_DIR [--times t1,t2,...] [--quiet]
+  firn compare RUN_A RUN_B [--out DIR] [--force] [--tolerance name=value ...]
+               [--color-by Q] [--size WxH] [more: firn compare --help]
   firn --help | firn COMMAND --help | firn --version
 
 commands:
@@ -30,9 +34,11 @@ commands:
   check   parse and validate the scene, print what it would simulate, run nothing
   render  PNG frames, a contact sheet and a video of a finished run in OUT_DIR/render/
   report  charts of a finished run (failure maps, crack, flow) in OUT_DIR/report/report.html
+  compare two runs of one scene side by side (renders, curves, values) in compare.html
 
 Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O error,
-4 internal error, 130 interrupted. See README.md for the scene reference.
+4 internal error, 5 compare: a figure moved beyond its tolerance, 130 interrupted.
+See README.md for the scene reference.
 )";
 
 const char* kRunHelp = R"(usage: firn run SCENE.toml [options]
@@ -217,6 +223,19 @@ int main(int argc, char** argv) {
             }
             return firn::cli::runRenderCommand(c);
         }
+        if (name == "compare") {
+            firn::cli::CompareCommand c;
+            try {
+                c = firn::cli::parseCompareCommand({argv + 2, argv + argc});
+            } catch (const std::invalid_argument& e) {
+                throw UsageError{e.what()};
+            }
+            if (c.help) {
+                std::fputs(firn::cli::kCompareHelp, stdout);
+                return 0;
+            }
+            return firn::cli::runCompareCommand(c);
+        }
         if (name != "run" && name != "check" && name != "report")
             throw UsageError{"unknown command '" + name + "'"};
         const Command c = parseCommand(argc, argv);
@@ -233,6 +252,9 @@ int main(int argc, char** argv) {
         return 1;
     } catch (const firn::SceneError& e) {
         std::fprintf(stderr, "%s\n", e.what());
+        return 1;
+    } catch (const firn::DifferentScenesError& e) {
+        std::fprintf(stderr, "firn compare: %s\n", e.what());
         return 1;
     } catch (const firn::IoError& e) {
         std::fprintf(stderr, "firn: I/O error: %s\n", e.what());

@@ -402,22 +402,17 @@ void annotate(Image& image, const VolumeFrameGrids& f, ColorBy colorBy,
 }
 
 /// Union of the density bounds over the frames (world), and the colour quantity's largest value.
-struct SequenceStats {
+VolumeCacheExtent scanFrames(const std::vector<std::pair<int, std::string>>& frames,
+                             ColorBy colorBy) {
+    VolumeCacheExtent s;
     openvdb::BBoxd box;
-    double maxValue = 0.0;
-    double maxDensity = 0.0;
-    double dx = 0.0;
-};
-
-SequenceStats scanFrames(const std::vector<std::pair<int, std::string>>& frames, ColorBy colorBy) {
-    SequenceStats s;
     for (const auto& [number, path] : frames) {
         const VolumeFrameGrids f = readFrame(number, path, colorBy);
         s.dx = f.density->voxelSize()[0];
         const openvdb::CoordBBox ib = f.density->evalActiveVoxelBoundingBox();
         if (!ib.empty()) {
-            s.box.expand(f.density->indexToWorld(ib.min().asVec3d()));
-            s.box.expand(f.density->indexToWorld(ib.max().asVec3d()));
+            box.expand(f.density->indexToWorld(ib.min().asVec3d()));
+            box.expand(f.density->indexToWorld(ib.max().asVec3d()));
         }
         float hi = 0.f;
         for (auto it = f.density->cbeginValueOn(); it; ++it) hi = std::max(hi, *it);
@@ -432,6 +427,11 @@ SequenceStats scanFrames(const std::vector<std::pair<int, std::string>>& frames,
         }
     }
     if (colorBy == ColorBy::Density) s.maxValue = s.maxDensity;
+    // isSorted, not empty(): a 2D run is a flat box, which BBox calls empty.
+    if (box.isSorted()) {
+        s.box.min = {box.min()[0], box.min()[1], box.min()[2]};
+        s.box.max = {box.max()[0], box.max()[1], box.max()[2]};
+    }
     return s;
 }
 
@@ -566,6 +566,11 @@ void removeOldFrames(const std::string& dir) {
 
 } // namespace
 
+VolumeCacheExtent scanVolumeCache(const std::string& outDir, const RenderOptions& options) {
+    openvdb::initialize();
+    return scanFrames(selectFrames(listVolumeFrames(outDir), options), options.view.colorBy);
+}
+
 RenderResult renderOutput(const std::string& outDir, const RenderOptions& options) {
     openvdb::initialize();
     const RenderDesc& view = options.view;
@@ -573,9 +578,9 @@ RenderResult renderOutput(const std::string& outDir, const RenderOptions& option
     const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-    const SequenceStats stats = scanFrames(frames, view.colorBy);
+    const VolumeCacheExtent stats = scanFrames(frames, view.colorBy);
     RenderResult result;
-    result.directory = outDir + "/render";
+    result.directory = options.directory.empty() ? outDir + "/render" : options.directory;
     std::error_code error;
     fs::create_directories(result.directory, error);
     if (error) throw IoError(result.directory + ": cannot create: " + error.message());
@@ -595,18 +600,16 @@ RenderResult renderOutput(const std::string& outDir, const RenderOptions& option
     }
     // Half a voxel of path through a twentieth of the densest snow is ~40 % opaque: dense snow
     // has a crisp surface, powder stays see-through.
-    scene.extinction = 1.0 / (0.05 * std::max(stats.maxDensity, 1e-6) * stats.dx);
+    const double opaqueDensity =
+        options.opaqueDensity > 0 ? options.opaqueDensity : stats.maxDensity;
+    scene.extinction = 1.0 / (0.05 * std::max(opaqueDensity, 1e-6) * stats.dx);
     const FloatGrid::Ptr terrain = readTerrain(outDir, options.quiet);
     scene.terrain = terrain.get();
 
-    Box3 box;
-    // isSorted, not empty(): a 2D run is a flat box, which BBox calls empty.
-    if (stats.box.isSorted()) {
-        box.min = {stats.box.min()[0], stats.box.min()[1], stats.box.min()[2]};
-        box.max = {stats.box.max()[0], stats.box.max()[1], stats.box.max()[2]};
-    }
-    if (view.autoCamera) {
-        scene.camera = frameBox(box, options.dimension, view.width, view.height, view.fovDeg);
+    if (options.camera) {
+        scene.camera = *options.camera;
+    } else if (view.autoCamera) {
+        scene.camera = frameBox(stats.box, options.dimension, view.width, view.height, view.fovDeg);
     } else {
         scene.camera.position = view.cameraPosition;
         scene.camera.lookAt = view.lookAt;

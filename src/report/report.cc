@@ -8,33 +8,25 @@
 #include "report/map_frames.h"
 #include "report/metrics_table.h"
 #include "report/particle_reader.h"
+#include "report/python_script.h"
 #include "report/weak_layer_map.h"
 
-#include <spawn.h>
-#include <sys/wait.h>
 #include <toml++/toml.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
 #include <sstream>
 
-extern char** environ;
-
 namespace firn {
 namespace {
 
 namespace fs = std::filesystem;
 using report::CachedFrame;
-
-constexpr const char* kPython = "/usr/bin/python3";
 
 /// The run's scene.toml without its [[terrain]] tables. The report needs the dimension, the
 /// grid and the materials only, and a heightfield's DEM file need not be where scene.toml says:
@@ -74,7 +66,7 @@ std::string csvNumber(double value) {
 }
 
 struct RunFolder {
-    std::string outDir, reportDir, dataDir;
+    std::string outDir;
     SceneDesc scene;
     std::vector<bool> isWeakLayer; ///< by material index
     std::string weakLayerNames;    ///< comma-separated, empty when there is none
@@ -95,8 +87,6 @@ RunFolder openRunFolder(const std::string& outDir) {
     }
     RunFolder run;
     run.outDir = outDir;
-    run.reportDir = outDir + "/report";
-    run.dataDir = run.reportDir + "/data";
     run.scene = loadRunScene(outDir + "/scene.toml");
     for (const MaterialDesc& m : run.scene.materials) {
         const bool weak = m.model == MaterialModel::WeakLayer;
@@ -215,47 +205,10 @@ std::string reportJson(const RunFolder& run, const ReportOptions& options, const
     return json.str();
 }
 
-std::string scriptPath() {
-    const char* fromEnv = std::getenv("FIRN_RENDER_SCRIPTS");
-    const std::string folder = fromEnv && *fromEnv ? fromEnv : FIRN_RENDER_SCRIPTS;
-    const std::string path = folder + "/report.py";
-    std::error_code error;
-    if (!fs::is_regular_file(path, error)) {
-        throw IoError("report script not found: " + path +
-                      " (set FIRN_RENDER_SCRIPTS to the folder that holds report.py)");
-    }
-    return path;
-}
-
-/// Runs the script without a shell, so that no folder name is ever parsed as shell syntax.
-void runScript(const std::string& script, const RunFolder& run, const ReportOptions& options) {
-    std::vector<std::string> args = {kPython, script, run.outDir};
-    if (options.quiet) args.push_back("--quiet");
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = 0;
-    const int spawned = posix_spawn(&pid, kPython, nullptr, nullptr, argv.data(), environ);
-    if (spawned != 0) {
-        throw IoError(std::string("cannot start ") + kPython + ": " + std::strerror(spawned) +
-                      " (the report needs Debian's python3 with python3-matplotlib)");
-    }
-    int status = 0;
-    while (waitpid(pid, &status, 0) < 0) {
-        if (errno != EINTR)
-            throw IoError(std::string("waiting for ") + script + ": " + std::strerror(errno));
-    }
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
-    const std::string how = WIFEXITED(status) ? "exit status " + std::to_string(WEXITSTATUS(status))
-                                              : "signal " + std::to_string(WTERMSIG(status));
-    throw IoError(script + " failed with " + how + " (its messages are above)");
-}
-
 } // namespace
 
-std::string writeReport(const ReportOptions& options) {
+std::vector<double> writeReportTables(const ReportOptions& options, const std::string& dataDir) {
     const RunFolder run = openRunFolder(options.outDir);
-    const std::string script = scriptPath();
     if (!options.times.empty() && run.frames.empty()) {
         throw SceneError(SourceLoc{"--times", 0, 0}, "",
                          "the run wrote no particle cache (output.particles = false), so there "
@@ -267,13 +220,27 @@ std::string writeReport(const ReportOptions& options) {
     PathEnds ends;
     if (!run.frames.empty()) reduceFrames(run, mapFrames, options, table, ends);
 
-    makeDirectories(run.dataDir);
-    writeFileAtomic(run.dataDir + "/weak_layer.csv", table.text());
-    writeFileAtomic(run.dataDir + "/map_frames.csv", mapFramesCsv(run, mapFrames));
-    writeFileAtomic(run.dataDir + "/report.json", reportJson(run, options, ends));
+    makeDirectories(dataDir);
+    writeFileAtomic(dataDir + "/weak_layer.csv", table.text());
+    writeFileAtomic(dataDir + "/map_frames.csv", mapFramesCsv(run, mapFrames));
+    writeFileAtomic(dataDir + "/report.json", reportJson(run, options, ends));
+    std::vector<double> mapTimes;
+    for (int frame : mapFrames) {
+        const auto at = std::find(run.frames.begin(), run.frames.end(), frame) - run.frames.begin();
+        mapTimes.push_back(run.times[at]);
+    }
+    return mapTimes;
+}
+
+std::string writeReport(const ReportOptions& options) {
+    const std::string script = report::renderScriptPath("report.py");
+    const std::string reportDir = options.outDir + "/report";
+    writeReportTables(options, reportDir + "/data");
     progress(options, "drawing charts with " + script);
-    runScript(script, run, options);
-    return run.reportDir + "/report.html";
+    std::vector<std::string> args = {options.outDir};
+    if (options.quiet) args.push_back("--quiet");
+    report::runPythonScript(script, args);
+    return reportDir + "/report.html";
 }
 
 } // namespace firn
