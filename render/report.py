@@ -7,7 +7,8 @@ Writes OUT_DIR/report/*.png and OUT_DIR/report/report.html, a single file with t
 embedded, so that it can be mailed or archived on its own.
 
 Figures follow Gaume et al. (2019, Cold Reg. Sci. Technol. 168:102847): Fig. A1 (weak layer
-seen from above), Fig. 3 bottom (crack speed along the slope), Fig. 7 (McClung & Gauer 2018).
+seen from above), Fig. 3 bottom (crack speed along the slope, grey bars at slab fractures),
+Fig. 7 (McClung & Gauer 2018).
 """
 import argparse
 import base64
@@ -23,6 +24,7 @@ import matplotlib
 
 matplotlib.use("Agg")  # no display: files only
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
+import matplotlib.ticker  # noqa: E402
 
 DPI = 120
 # One colour map per quantity, the same in every chart. Fig. A1 shows failed weak layer white
@@ -35,6 +37,7 @@ CMAP_SPEED = "Reds"
 NO_LAYER = "#c9d6e3"
 # McClung & Gauer (2018) as quoted by Gaume et al. (2019): u_m ~ 1.5 L^(1/2), alpha 20-30 deg.
 MG_COEFFICIENT = 1.5
+SLAB_FRACTURE_COLOUR = "0.6"  # grey, as the bars of Fig. 3 bottom
 ALPHA_BAND = (20.0, 30.0)
 
 
@@ -108,6 +111,20 @@ class Run:
     @property
     def has_map_data(self):
         return self.weak["frame"].size > 0
+
+    @property
+    def slab_fractures(self):
+        """summary.json slab_fractures: one dict per fracture (none in older runs)."""
+        return self.summary.get("slab_fractures") or []
+
+    @property
+    def has_slab(self):
+        """A material with model "snow": the slab that fractures."""
+        return any(m.get("model") == "snow" for m in self.scene.get("material", []))
+
+    @property
+    def has_slab_metrics(self):
+        return "slab_blocks" in self.metrics
 
     @property
     def has_crack(self):
@@ -287,6 +304,9 @@ def crack_chart(run, path):
     a.grid(alpha=0.3)
     moving = np.isfinite(speed) & np.isfinite(tip)
     b.plot(tip[moving], speed[moving], "o-", ms=3, color="#d62728", label="between frames")
+    for k, f in enumerate(run.slab_fractures):
+        b.axvspan(f["x"] - run.dx / 2, f["x"] + run.dx / 2, color=SLAB_FRACTURE_COLOUR,
+                  alpha=0.6, lw=0, label="slab fracture" if k == 0 else None)
     mean = run.summary.get("mean_crack_speed")
     if mean:
         b.axhline(mean, color="k", ls="--", lw=1, label=f"steady mean {mean:.1f} m/s")
@@ -296,6 +316,76 @@ def crack_chart(run, path):
     b.legend(fontsize=8)
     b.grid(alpha=0.3)
     return save(fig, path)
+
+
+def slab_fracture_chart(run, path):
+    """Where and when the slab fractured against the crack tip, the depth each started from, and
+    the blocks the slab broke into."""
+    fractures = run.slab_fractures
+    fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 4.4), constrained_layout=True)
+    t, tip = run.column("time"), run.column("crack_tip_x")
+    if np.isfinite(tip).any():
+        a.plot(t, tip, "-", color="#1f77b4", lw=1.2, label="weak-layer crack tip")
+    if fractures:
+        ft = [f["time"] for f in fractures]
+        fx = [f["x"] for f in fractures]
+        a.plot(ft, fx, "s", ms=6, color="0.35", label="slab fracture (x, time)", clip_on=False)
+        for f in fractures:
+            d = f.get("distance_behind_crack_tip")
+            if d is not None:
+                a.annotate(f"{d:.2f} m", (f["time"], f["x"]), textcoords="offset points",
+                           xytext=(4, -10), fontsize=7, color="0.3")
+    a.set_xlim(t[0], t[-1])
+    low, high = a.get_ylim()
+    if high - low < 1.0:  # a lone fracture: show a metre around it
+        middle = 0.5 * (low + high)
+        a.set_ylim(middle - 0.5, middle + 0.5)
+    a.set_xlabel("time (s)")
+    a.set_ylabel("x along the slope (m)")
+    a.set_title("slab fractures and the crack tip")
+    a.legend(fontsize=8, loc="best")
+    a.grid(alpha=0.3)
+
+    if fractures:
+        b.plot([f["x"] for f in fractures], [f["start_depth_fraction"] for f in fractures], "s",
+               ms=6, color="0.35")
+    b.set_ylim(-0.05, 1.05)
+    b.set_yticks([0.0, 0.25, 0.5, 0.75, 1.0])
+    b.set_yticklabels(["0 (weak-layer interface)", "0.25", "0.5", "0.75", "1 (top surface)"])
+    b.set_xlabel("x along the slope (m)")
+    b.set_ylabel("start depth, fraction of the slab thickness")
+    b.set_title("where each slab fracture started")
+    b.grid(alpha=0.3)
+
+    if run.has_slab_metrics:
+        c.plot(t, run.column("slab_blocks"), "o-", ms=3, color="#9467bd", label="blocks")
+        c.set_ylabel("slab blocks")
+        c.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+        mass = c.twinx()
+        unit = "kg/m" if run.dimension == 2 else "kg"
+        mass.plot(t, run.column("largest_block_mass"), "--", color="#8c564b",
+                  label=f"largest block ({unit})")
+        mass.plot(t, run.column("median_block_mass"), ":", color="#8c564b",
+                  label=f"median block ({unit})")
+        mass.set_ylabel(f"block mass ({unit})")
+        mass.legend(fontsize=8, loc="center right")
+    c.set_xlabel("time (s)")
+    c.set_title("slab blocks (intact slab, face-connected cells)")
+    c.legend(fontsize=8, loc="upper left")
+    c.grid(alpha=0.3)
+    return save(fig, path)
+
+
+def slab_fracture_table(run):
+    rows = "\n".join(
+        f"<tr><td class=num>{k + 1}</td><td class=num>{format_value(f['x'])}</td>"
+        f"<td class=num>{format_value(f['z'])}</td><td class=num>{format_value(f['time'])}</td>"
+        f"<td class=num>{format_value(f['start_depth_fraction'])}</td>"
+        f"<td class=num>{format_value(f.get('distance_behind_crack_tip'))}</td></tr>"
+        for k, f in enumerate(run.slab_fractures))
+    return ("<table>\n<tr><th>#</th><th>x (m)</th><th>z (m)</th><th>time (s)</th>"
+            "<th>start depth fraction</th><th>distance behind crack tip (m)</th></tr>\n"
+            f"{rows}\n</table>")
 
 
 def flow_chart(run, path):
@@ -352,7 +442,8 @@ UNITS = {
     "peak_rss_bytes": "B", "bytes_per_particle": "B", "mass_initial": "kg",
     "mass_final": "kg", "max_speed": "m/s", "max_crack_speed": "m/s",
     "mean_crack_speed": "m/s", "crack_propagation_distance": "m", "runout_x": "m",
-    "alpha_angle_deg": "°",
+    "alpha_angle_deg": "°", "first_slab_fracture_time": "s",
+    "final_largest_block_mass": "kg",
 }
 
 
@@ -365,8 +456,10 @@ def format_value(value):
 def summary_table(run):
     rows = []
     for key, value in run.summary.items():
+        if isinstance(value, list):  # slab_fractures: a table of its own
+            value = f"{len(value)} entries (see below)"
         unit = UNITS.get(key, "")
-        if key.startswith("mass_") and run.dimension == 2:
+        if (key.startswith("mass_") or key.endswith("_block_mass")) and run.dimension == 2:
             unit = "kg/m"
         rows.append((key, format_value(value), unit))
     length = run.path_length()
@@ -443,6 +536,35 @@ def map_section(run, out, written):
     return parts
 
 
+def slab_section(run, out, written):
+    if not run.has_slab:
+        return ["<p>This scene has no slab (no material with model <code>snow</code>), so there "
+                "are no slab fractures.</p>"]
+    if not run.has_slab_metrics:
+        return ["<p>This run's metrics.csv has no slab fracture columns (written before they "
+                "existed).</p>"]
+    parts = []
+    if not run.slab_fractures:
+        parts.append("<p>No slab fracture: no slab column fractured through 80 % of its "
+                     "thickness.</p>")
+    written.append(slab_fracture_chart(run, out / "slab_fractures.png"))
+    parts.append(figure(written[-1], (
+        "Slab fractures (summary.json <code>slab_fractures</code>): a slab particle (model "
+        "<code>snow</code>) is fractured once its cohesion p<sub>0</sub> has softened through "
+        "dilation to half its initial value; a fracture goes through the slab where fractured "
+        "particles fill 80 % of the slab's thickness (cells of dx along the bed, rows of dx "
+        "normal to it). Left: position and time where each went through, with the weak-layer "
+        "crack tip (labels: distance behind the tip; the paper finds &lt; 1 m). Middle: the depth "
+        "where each started, from the weak-layer interface (0) to the top surface (1): Gaume et "
+        "al. (2019) find the crown fracture starting at the interface at the slope scale "
+        "(Fig. 5) and from the top in the PST. Right: blocks of intact slab (face-connected "
+        "cells of dx) against time, and the mass of the largest and the median one, as the slab "
+        "granulates.")))
+    if run.slab_fractures:
+        parts.append(slab_fracture_table(run))
+    return parts
+
+
 def write_report(run, quiet):
     out = run.report_dir
     written = []
@@ -462,9 +584,13 @@ def write_report(run, quiet):
             "η > 0, metrics.csv <code>crack_tip_x</code>) and the extent's two ends against "
             "time. Right: the crack speed (the tip's advance between frames, "
             "<code>crack_speed</code>) against the tip position along the slope, as in Gaume "
-            "et al. (2019), Fig. 3 bottom; dashed: the steady mean speed of summary.json.")))
+            "et al. (2019), Fig. 3 bottom; dashed: the steady mean speed of summary.json; grey "
+            "bars: slab fractures (summary.json <code>slab_fractures</code>), one cell wide.")))
     else:
         sections.append("<p>No crack: no weak-layer particle reached η &gt; 0.</p>")
+
+    sections.append("<h2>Slab fractures</h2>")
+    sections += slab_section(run, out, written)
 
     sections.append("<h2>Flow</h2>")
     written.append(flow_chart(run, out / "flow.png"))

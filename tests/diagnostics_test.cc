@@ -78,3 +78,17 @@ TEST_CASE("the stability watch flags energy growth and non-finite states", "[dia
     REQUIRE(watch.check(d, world) ==
             "non-finite particle state at t = 0.25 s, step 42, near x = (1, 2, 3) m");
 }
+
+TEST_CASE("crack tracker interpolates its tip in time and knows its direction", "[diagnostics]") {
+    CrackTracker crack;
+    REQUIRE(crack.direction() == 0);
+    REQUIRE(std::isnan(crack.tipAt(0.0)));
+    crack.update(crackFrame(5.0, 5.1), 0.1);
+    crack.update(crackFrame(4.5, 5.12), 0.2); // runs up-slope
+    crack.update(crackFrame(3.5, 5.12), 0.3);
+    CHECK(crack.direction() == -1);
+    CHECK(std::isnan(crack.tipAt(0.05)));    // before the crack
+    CHECK(crack.tipAt(0.1) == Approx(5.1));  // first frame: the down-slope end
+    CHECK(crack.tipAt(0.25) == Approx(4.0)); // halfway from 4.5 to 3.5
+    CHECK(crack.tipAt(0.5) == Approx(3.5));  // after the last frame: the last tip
+}

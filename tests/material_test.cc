@@ -785,3 +785,26 @@ TEST_CASE("Snow dispatch and a NaN trial stays NaN (no silent repair)", "[materi
     const ReturnMapResult r = returnMapCamClay(m, Vec3f(nan, 0.f, 0.f), m.initialState());
     CHECK(std::isnan(r.eps[0]));
 }
+
+TEST_CASE("a snow particle counts as fractured once p0 has softened to half its start",
+          "[material]") {
+    Material snow;
+    snow.model = MaterialModel::Snow;
+    snow.dim = 2;
+    snow.lame = Lame::fromYoungPoisson(5.0e6, 0.3);
+    snow.camClay.p0Initial = 2000.f;
+    const float K = snow.lame.bulkModulus(2), xi = snow.camClay.xi;
+    // eq. (2) inverted: the hardening variable at which p0 = ratio * initial_p0
+    const auto atRatio = [&](double ratio) {
+        PlasticState s = snow.initialState();
+        s.hardening = float(-std::asinh(ratio * 2000.0 / K) / xi);
+        return s;
+    };
+    CHECK_FALSE(slabFractured(snow, snow.initialState()));
+    CHECK_FALSE(slabFractured(snow, atRatio(0.55)));
+    CHECK(slabFractured(snow, atRatio(0.45)));
+    CHECK(slabFractured(snow, atRatio(0.0)));
+    Material weak = snow;
+    weak.model = MaterialModel::WeakLayer;
+    CHECK_FALSE(slabFractured(weak, atRatio(0.0))); // the weak layer is no slab
+}

@@ -47,6 +47,12 @@ public:
     double tip() const { return mTip; }     ///< m, NaN before the crack appears
     double speed() const { return mSpeed; } ///< m/s since the previous frame, NaN if none
     double maxSpeed() const { return mMaxSpeed; }
+    /// Leading tip at `time`, interpolated linearly between frames (the last tip after the last
+    /// frame), m; NaN before the crack appears.
+    double tipAt(double time) const;
+    /// Direction of travel of the leading tip along x: +1 down-slope, -1 up-slope, 0 before the
+    /// crack appears.
+    int direction() const { return mDirection; }
     /// Growth of the extent since its first appearance, m.
     double distance() const;
     /// Steady crack speed, m/s: least-squares slope of the leading tip against time over the
@@ -58,6 +64,7 @@ private:
     double mMinX0 = std::numeric_limits<double>::quiet_NaN(), mMaxX0 = mMinX0;
     double mMinX = 0, mMaxX = 0, mTime = 0;
     double mTip = std::numeric_limits<double>::quiet_NaN(), mSpeed = mTip, mMaxSpeed = 0;
+    int mDirection = 0;
     std::vector<std::pair<double, double>> mHistory; // (time, leading tip x)
 };
 

@@ -90,7 +90,11 @@ public:
     void set(const std::string& key, const char* value) { set(key, std::string(value)); }
     void setBool(const std::string& key, bool value);
     void setNull(const std::string& key);
+    /// An array of objects, one object per line.
+    void set(const std::string& key, const std::vector<JsonObject>& objects);
     std::string str() const;
+    /// The object on one line, without a trailing newline.
+    std::string inlineStr() const;
 
 private:
     std::vector<std::pair<std::string, std::string>> mItems; // key, encoded value

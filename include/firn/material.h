@@ -34,6 +34,9 @@ struct PlasticState {
     float epsV = 0.f;
     float eta = 0.f; ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
     std::uint32_t flags = 0;
+    /// Snow slab: simulated time (s) of the step in which slabFractured() first held, set with
+    /// kFlagSlabFractured (0 until then).
+    float fractureTime = 0.f;
 };
 constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once
 constexpr std::uint32_t kFlagCollapsed = 2u; ///< weak layer fully softened (p0 reached 0)
@@ -45,6 +48,8 @@ constexpr std::uint32_t kFlagAsleep = 4u;
 /// or in the air: kept out of the settling stage and put back as seeded at t = 0).
 constexpr std::uint32_t kFlagInCut = 8u;
 constexpr std::uint32_t kFlagOutsideSettling = 16u;
+/// Snow slab particle softened to slabFractured() at least once (fractureTime says when).
+constexpr std::uint32_t kFlagSlabFractured = 32u;
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
 struct CamClayParams {
@@ -91,6 +96,14 @@ float camClayYield(float p, float q, float p0, float M, float beta);
 
 /// Hardening law p0 = K sinh(xi max(-e, 0)), eq. (2) (and eq. (3) with e = eta).
 float camClayP0(float K, float xi, float hardeningVariable);
+
+/// Share of the initial cohesion below which a snow slab particle counts as fractured.
+constexpr float kSlabFractureP0Ratio = 0.5f;
+
+/// Slab fracture criterion: a `snow` particle whose cohesion p0 (eq. (2)) has softened through
+/// plastic dilation to at most kSlabFractureP0Ratio of its initial value. Tensile slab fractures
+/// appear that way (Gaume et al. 2019, sec. 3; snow-model.md). False for every other model.
+bool slabFractured(const Material& m, const PlasticState& state);
 
 struct ReturnMapResult {
     Vec3f eps;          ///< projected principal strains

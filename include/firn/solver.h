@@ -76,8 +76,10 @@ void step(World& world, double dt, StepTimings* timings = nullptr);
 /// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions.
 void updateGridVelocity(World& world, float dt);
 
-/// Return mapping and Kirchhoff stress of every awake particle from its trial F.
-void applyPlasticity(World& world);
+/// Return mapping and Kirchhoff stress of every awake particle from its trial F. `stateTime` is
+/// the simulated time the new state belongs to (the end of the step): a slab particle that
+/// fractures here is stamped with it (PlasticState::fractureTime).
+void applyPlasticity(World& world, double stateTime);
 
 /// Sleeping (GridDesc::sleep): puts to sleep the particles of leaves that, with all their
 /// neighbours, have been slower than sleepSpeed for sleepSteps steps, and wakes the asleep

@@ -1,6 +1,7 @@
 #include <firn/diagnostics.h>
 #include <firn/io.h>
 #include <firn/run.h>
+#include <firn/slab_fracture.h>
 #include <firn/solver.h>
 #include <firn/terrain_export.h>
 
@@ -111,7 +112,12 @@ const std::vector<std::string> kMetricColumns = {"frame",
                                                  "energy_drift",
                                                  "crack_tip_min_x",
                                                  "crack_tip_max_x",
-                                                 "asleep"};
+                                                 "asleep",
+                                                 "slab_fractures",
+                                                 "slab_fractured_fraction",
+                                                 "slab_blocks",
+                                                 "largest_block_mass",
+                                                 "median_block_mass"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
@@ -124,6 +130,7 @@ struct RunState {
     std::string framesDir;
     MetricsWriter metrics;
     CrackTracker crack;
+    SlabFractureTracker slab;
     double lastDt = 0;
     double maxSpeed = 0;
     FrameDiagnostics first, last;
@@ -146,6 +153,8 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     if (out.particles) writeParticleCache(s.framesDir, info, w.dx, exportParticles(w));
     if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
     s.crack.update(d, w.time);
+    s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
+    const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
     const double nan = std::nan("");
     s.metrics.appendRow({std::to_string(k),
@@ -173,7 +182,34 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          cell(watch ? watch->drift(d) : 0.0),
                          cell(d.crackMinX),
                          cell(d.crackMaxX),
-                         std::to_string(asleepCount(w))});
+                         std::to_string(asleepCount(w)),
+                         std::to_string(s.slab.fractures().size()),
+                         cell(s.slab.fracturedMassFraction()),
+                         std::to_string(blocks.count),
+                         cell(blocks.largestMass),
+                         cell(blocks.medianMass)});
+}
+
+/// Slab fractures (Gaume et al. 2019, sec. 3, Fig. 3) and the slab's blocks at the end.
+void writeSlabSummary(const SlabFractureTracker& slab, JsonObject& j) {
+    std::vector<JsonObject> fractures;
+    for (const SlabFracture& f : slab.fractures()) {
+        JsonObject o;
+        o.set("x", f.x);
+        o.set("y", f.y);
+        o.set("z", f.z);
+        o.set("time", f.time);
+        o.set("start_depth_fraction", f.startDepthFraction);
+        o.set("distance_behind_crack_tip", f.distanceBehindCrackTip);
+        fractures.push_back(o);
+    }
+    j.set("slab_fracture_count", static_cast<long long>(fractures.size()));
+    j.set("first_slab_fracture_time",
+          fractures.empty() ? std::nan("") : slab.fractures().front().time);
+    j.set("slab_fractures", fractures);
+    j.set("final_slab_blocks", static_cast<long long>(slab.blocks().count));
+    j.set("max_slab_blocks", static_cast<long long>(slab.maxBlocks()));
+    j.set("final_largest_block_mass", slab.blocks().largestMass);
 }
 
 void writeSummary(const RunState& s, const RunResult& r, int threads) {
@@ -199,6 +235,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("max_crack_speed", s.crack.maxSpeed());
     j.set("mean_crack_speed", s.crack.meanSpeed());
     j.set("crack_propagation_distance", s.crack.distance());
+    writeSlabSummary(s.slab, j);
     double runout = -std::numeric_limits<double>::infinity();
     for (const Vec3f& x : w.particles.x) runout = std::max(runout, double(x[0]));
     j.set("runout_x", runout);

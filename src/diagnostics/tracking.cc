@@ -14,12 +14,14 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
         mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
         mTime = time;
         mTip = d.crackMaxX;
+        mDirection = 1;
         mHistory.push_back({time, mTip});
         return;
     }
     const bool upSlope = mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
     const double advance = upSlope ? mMinX - d.crackMinX : d.crackMaxX - mMaxX;
     mTip = upSlope ? d.crackMinX : d.crackMaxX;
+    mDirection = upSlope ? -1 : 1;
     mSpeed = std::max(0.0, advance) / (time - mTime);
     mMaxSpeed = std::max(mMaxSpeed, mSpeed);
     mMinX = d.crackMinX, mMaxX = d.crackMaxX, mTime = time;
@@ -28,6 +30,17 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
 
 double CrackTracker::distance() const {
     return std::isnan(mMinX0) ? 0.0 : (mMaxX - mMinX) - (mMaxX0 - mMinX0);
+}
+
+double CrackTracker::tipAt(double time) const {
+    if (mHistory.empty() || time < mHistory.front().first) return std::nan("");
+    const auto after =
+        std::upper_bound(mHistory.begin(), mHistory.end(), time,
+                         [](double t, const auto& entry) { return t < entry.first; });
+    if (after == mHistory.end()) return mHistory.back().second;
+    const auto& [t0, x0] = *(after - 1);
+    const auto& [t1, x1] = *after;
+    return x0 + (x1 - x0) * (time - t0) / (t1 - t0);
 }
 
 double CrackTracker::meanSpeed() const {

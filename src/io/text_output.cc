@@ -213,6 +213,21 @@ void JsonObject::setNull(const std::string& key) {
     upsert(mItems, key, "null");
 }
 
+void JsonObject::set(const std::string& key, const std::vector<JsonObject>& objects) {
+    if (objects.empty()) return upsert(mItems, key, "[]");
+    std::string out = "[\n";
+    for (std::size_t i = 0; i < objects.size(); ++i)
+        out += "    " + objects[i].inlineStr() + (i + 1 < objects.size() ? ",\n" : "\n");
+    upsert(mItems, key, out + "  ]");
+}
+
+std::string JsonObject::inlineStr() const {
+    std::string out = "{";
+    for (std::size_t i = 0; i < mItems.size(); ++i)
+        out += (i ? ", " : "") + jsonString(mItems[i].first) + ": " + mItems[i].second;
+    return out + "}";
+}
+
 std::string JsonObject::str() const {
     if (mItems.empty()) return "{}\n";
     std::string out = "{\n";

@@ -99,4 +99,10 @@ float camClayP0(float K, float xi, float hardeningVariable) {
     return K * std::sinh(arg);
 }
 
+bool slabFractured(const Material& m, const PlasticState& state) {
+    if (m.model != MaterialModel::Snow || !(m.camClay.p0Initial > 0.f)) return false;
+    const float p0 = camClayP0(m.lame.bulkModulus(m.dim), m.camClay.xi, state.hardening);
+    return p0 <= kSlabFractureP0Ratio * m.camClay.p0Initial;
+}
+
 } // namespace firn

@@ -75,7 +75,7 @@ std::string formatBox(const Vec3f& lo, const Vec3f& hi, int dim) {
 void reportOverload(World& w, SettleReport& report) {
     ParticleSet& ps = w.particles;
     for (PlasticState& s : ps.plastic) s.flags &= ~kFlagFailed;
-    applyPlasticity(w);
+    applyPlasticity(w, w.time);
     std::vector<std::size_t> perMaterial(w.materials.size(), 0);
     for (std::size_t i = 0; i < ps.size(); ++i) {
         if (!(ps.plastic[i].flags & kFlagFailed) || (ps.plastic[i].flags & kFlagInCut)) continue;
@@ -112,7 +112,7 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     }
     {
         SettlingConditions conditions(w);
-        applyPlasticity(w); // elastic stress of the seeded state
+        applyPlasticity(w, w.time); // elastic stress of the seeded state
         double previous = 0.0;
         while (w.time < params.maxTime) {
             if (params.interrupted && params.interrupted()) {
@@ -149,6 +149,8 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     stopAll(w.particles);
     w.time = 0.0;
     w.steps = 0;
+    // A slab that fractured while settling is fractured at t = 0.
+    for (PlasticState& s : w.particles.plastic) s.fractureTime = 0.f;
     w.maxSpeed = 0.f;
     reportOverload(w, report);
     if (!report.converged && !report.interrupted) {

@@ -348,7 +348,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
     w.particles.extractFlagged(kFlagInCut);
     for (PlasticState& s : w.particles.plastic) s.flags &= ~kFlagOutsideSettling;
     w.particles.bucketByLeaf();
-    applyPlasticity(w); // the stress of the start state (and tau after bucketing)
+    applyPlasticity(w, w.time); // the stress of the start state (and tau after bucketing)
     for (std::size_t i = 0; i < w.particles.size(); ++i)
         w.maxSpeed = std::max(w.maxSpeed, w.particles.v[i].norm());
     return world;

@@ -56,6 +56,14 @@ bool elasticFastPath(const Material& mat, const Mat3f& H, const PlasticState& st
     return true;
 }
 
+/// Stamps `time` on a snow particle the first time it counts as fractured (slabFractured), so
+/// that slab fractures are timed to the step, not to the frame.
+void markSlabFracture(const Material& mat, double time, PlasticState& state) {
+    if ((state.flags & kFlagSlabFractured) || !slabFractured(mat, state)) return;
+    state.flags |= kFlagSlabFractured;
+    state.fractureTime = float(time);
+}
+
 } // namespace
 
 double stableTimeStep(const World& world) {
@@ -108,7 +116,7 @@ void updateGridVelocity(World& world, float dt) {
     });
 }
 
-void applyPlasticity(World& world) {
+void applyPlasticity(World& world, double stateTime) {
     ParticleSet& ps = world.particles;
     const int dim = world.dim;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
@@ -122,6 +130,7 @@ void applyPlasticity(World& world) {
             if (mat.model != MaterialModel::Elastic) {
                 const ReturnMapResult rm = returnMap(mat, eps, ps.plastic[i]);
                 ps.plastic[i] = rm.state;
+                markSlabFracture(mat, stateTime, ps.plastic[i]);
                 if (rm.eps != eps) {
                     // Fe = U exp(eps) V^T = R Fe_trial with R = U diag(exp(eps) / sigma) U^T, as
                     // H <- H + (R - I)(I + H), R - I = U diag(expm1(eps - eps_trial)) U^T, which
@@ -161,7 +170,7 @@ void step(World& world, double dt, StepTimings* timings) {
     }
     {
         StageClock clock(timings ? &timings->plasticity : nullptr);
-        applyPlasticity(world);
+        applyPlasticity(world, world.time + dt);
     }
     {
         StageClock clock(timings ? &timings->sleep : nullptr);

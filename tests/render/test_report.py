@@ -134,6 +134,50 @@ x_range = [3.0, 12.0]
 volumes = []
 """
 
+# A 2 m snow slab on a 30 degree slip slope without gravity, its halves pulled apart at 1 m/s:
+# it breaks in tension near x = 1 m in the first steps (as tests/slab_fracture_test.cc): ~1 s.
+PULLED = """
+[simulation]
+name = "report-pulled"
+dimension = 2
+end_time = 0.04
+frame_rate = 200
+gravity = [0.0, 0.0]
+
+[grid]
+dx = 0.05
+particles_per_cell = 4
+
+[[material]]
+name = "slab"
+model = "snow"
+youngs_modulus = 1.0e6
+initial_p0 = 2000.0
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.5, 0.8660254]
+boundary = "slip"
+
+[[body]]
+material = "slab"
+shape = "layer"
+thickness = 0.3
+x_range = [0.0, 1.0]
+velocity = [-0.8660254, 0.5]
+
+[[body]]
+material = "slab"
+shape = "layer"
+thickness = 0.3
+x_range = [1.0, 2.0]
+velocity = [0.8660254, -0.5]
+
+[output]
+volumes = []
+"""
+
 FAILURES = []
 
 
@@ -252,8 +296,9 @@ def check_pst(binary, work):
     check(np.mean(weak["failed_fraction"][up]) > 0.5 > np.mean(weak["failed_fraction"][down]),
           "failed behind the crack tip, elastic well ahead of it")
 
-    check_html(report_dir, expected_images=5)
-    for name in ("failure_maps", "failure_profiles", "crack", "flow", "mcclung_gauer"):
+    check_html(report_dir, expected_images=6)
+    for name in ("failure_maps", "failure_profiles", "crack", "slab_fractures", "flow",
+                 "mcclung_gauer"):
         check_png(report_dir / f"{name}.png")
     # The x-time image of the failed share (left panel of three): black elastic below the
     # crack's path, white/grey failed above it.
@@ -284,8 +329,9 @@ def check_pst_3d(binary, work):
     first = weak["frame"] == frames[0]
     check(np.sum(first) == 5 * np.unique(weak["x"][first]).size,
           "3D: each map is a full x-z raster")
-    check_html(report_dir, expected_images=4)
+    check_html(report_dir, expected_images=5)
     check_png(report_dir / "failure_maps.png")
+    check_png(report_dir / "slab_fractures.png")
 
 
 def check_slide(binary, work):
@@ -298,6 +344,8 @@ def check_slide(binary, work):
     report_dir = out / "report"
     page = check_html(report_dir, expected_images=2)
     check("no weak layer" in page, "a run without a weak layer says so instead of maps")
+    check("no slab" in page, "a run without a snow slab says so instead of slab fractures")
+    check(not (report_dir / "slab_fractures.png").exists(), "no slab fracture chart is drawn")
     check(not (report_dir / "failure_maps.png").exists(), "no failure map is drawn")
     image = check_png(report_dir / "mcclung_gauer.png")
     # Our point is a red marker on both panels.
@@ -305,6 +353,28 @@ def check_slide(binary, work):
     check(red.sum() > 100, f"the run's point is drawn ({red.sum()} red pixels)")
     info = json.loads((report_dir / "data" / "report.json").read_text())
     check(info["deposit_far_x"] > info["release_top_x"], "the deposit lies down-slope of the top")
+
+
+def check_pulled_slab(binary, work):
+    out = run_scene(binary, work, "pulled", PULLED)
+    summary = json.loads((out / "summary.json").read_text())
+    fractures = summary["slab_fractures"]
+    check(summary["slab_fracture_count"] == len(fractures) >= 1,
+          f"the pulled slab fractures ({len(fractures)} in summary.json)")
+    check(all(abs(f["x"] - 0.9) < 0.25 for f in fractures[:1]),
+          f"where it is pulled apart ({[f['x'] for f in fractures]})")
+    metrics = read_table(out / "metrics.csv")
+    check(metrics["slab_fractures"][-1] == len(fractures) and metrics["slab_blocks"][-1] >= 2,
+          "metrics.csv counts the fractures and the blocks")
+    firn(binary, "report", str(out), "--quiet")
+    report_dir = out / "report"
+    page = check_html(report_dir, expected_images=3)
+    check("distance behind crack tip" in page and "No slab fracture" not in page,
+          "the report lists the slab fractures")
+    image = check_png(report_dir / "slab_fractures.png")
+    # The fractures are grey squares, the blocks a purple line.
+    purple = (image[..., 0] > 0.45) & (image[..., 2] > 0.6) & (image[..., 1] < 0.55)
+    check(purple.sum() > 50, f"the block count is drawn ({purple.sum()} purple pixels)")
 
 
 def main():
@@ -317,6 +387,7 @@ def main():
     check_pst(args.firn, work)
     check_pst_3d(args.firn, work)
     check_slide(args.firn, work)
+    check_pulled_slab(args.firn, work)
     if FAILURES:
         print(f"{len(FAILURES)} check(s) failed")
         return 1
