@@ -6,6 +6,7 @@
 #include <firn/io.h>
 #include <firn/solver.h>
 
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <utility>
@@ -25,7 +26,11 @@ struct FrameDiagnostics {
     double topX = 0, topY = 0;      ///< highest particle, m
     double frontX = std::numeric_limits<double>::quiet_NaN(); ///< max x of moving snow (> 0.1 m/s)
     bool hasWeakLayer = false;
-    /// Extent along x of weak-layer particles with eta > 0; NaN while none.
+    /// Cells along x (width dx) that hold weak-layer particles with eta > 0, sorted, unique.
+    std::vector<std::int64_t> crackCells;
+    /// Extent along x of the crack: the largest run of crackCells with gaps of at most
+    /// kCrackGapCells (isolated particles that yielded elsewhere are not the crack); NaN while
+    /// none. Cell centres, m.
     double crackMinX = std::numeric_limits<double>::quiet_NaN();
     double crackMaxX = std::numeric_limits<double>::quiet_NaN();
     double failedFraction = 0;                               ///< failed mass / mass
@@ -34,6 +39,9 @@ struct FrameDiagnostics {
                                                              ///< non-finite particle is
     double totalEnergy() const { return kineticEnergy + elasticEnergy + gravitationalEnergy; }
 };
+
+/// Cells of failed weak layer further apart than this belong to different cracks.
+constexpr std::int64_t kCrackGapCells = 3;
 
 FrameDiagnostics computeDiagnostics(const World& world);
 

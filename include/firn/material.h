@@ -69,6 +69,10 @@ struct Material {
     CamClayParams camClay;
     float frictionAngleDeg = 30.f; ///< granular (Mohr-Coulomb friction angle)
     int dim = 3;
+    /// A slab for the slab-fracture detector: a `snow` material of a layer that lies on a weak
+    /// layer, or every `snow` material of a scene without a weak layer (set by buildWorld). A
+    /// base of old snow under the weak layer is not slab.
+    bool slab = false;
 
     static Material fromDesc(const MaterialDesc& desc, int dim);
     /// The plastic state a fresh particle of this material starts in (p0 = initial_p0).

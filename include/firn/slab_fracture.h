@@ -2,14 +2,14 @@
 // fractures behind the weak-layer crack tip, "en-echelon" fractures, Figs. 3, 5 and A1; the
 // granulation of the released slab). Reads particle states and never changes them.
 //
-// A slab particle (material model `snow`) is fractured once slabFractured() held for it; the
-// solver stamps the time (PlasticState::fractureTime). Along the bed, slab particles are binned
-// by the foot point of their bed normal on cells of dx (2D: x; 3D: x and z). A bin has fractured
-// through the slab when its fractured particles, together with those of its two neighbours
-// along x (a crack one particle wide straddles bin edges, and a crack normal to the bed leans
-// across vertical columns), fill kThroughShare of the height rows (dx thick, normal to the bed)
-// that slab particles occupy. A slab fracture is a connected run of such bins that holds no bin
-// that was already through at the previous update.
+// A slab particle (Material::slab: snow on a weak layer) is fractured once slabFractured() held for
+// it; the solver stamps the time (PlasticState::fractureTime). Along the bed, slab particles are
+// binned by the foot point of their bed normal on cells of dx (2D: x; 3D: x and z). A bin has
+// fractured through the slab when its fractured particles, together with those of its two
+// neighbours along x (a crack one particle wide straddles bin edges, and a crack normal to the bed
+// leans across vertical columns), fill kThroughShare of the height rows (dx thick, normal to the
+// bed) that slab particles occupy. A slab fracture is a connected run of such bins that holds no
+// bin that was already through at the previous update.
 #pragma once
 
 #include <firn/diagnostics.h>
@@ -35,7 +35,7 @@ struct SlabSample {
     float fractureTime = 0.f; ///< s, when it fractured
 };
 
-/// The slab particles of a world (material model `snow`), in particle order. The bed is the
+/// The slab particles of a world (Material::slab), in particle order. The bed is the
 /// collider nearest to each particle (height: its signed distance, foot: the particle moved
 /// back along the collider's normal); without colliders, height is y and the foot x (and z).
 std::vector<SlabSample> slabSamples(const World& world);

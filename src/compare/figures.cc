@@ -24,7 +24,8 @@ struct JsonValue {
     std::string text; ///< numbers: as written
 };
 
-/// Reads summary.json, a flat object of numbers, strings, booleans and nulls (outputs.md).
+/// Reads summary.json: an object of numbers, strings, booleans and nulls (outputs.md), and of
+/// arrays and objects (slab_fractures), which are kept as their text and compared as text.
 class FlatJsonReader {
 public:
     FlatJsonReader(std::string text, std::string path)
@@ -87,6 +88,20 @@ private:
         ++mAt;
         return out;
     }
+    /// Past a balanced [...] or {...}, strings inside included.
+    void skipNested() {
+        int depth = 0;
+        do {
+            if (mAt >= mText.size()) fail("unterminated array or object");
+            const char c = mText[mAt];
+            if (c == '"') {
+                readString();
+                continue;
+            }
+            depth += (c == '[' || c == '{') ? 1 : (c == ']' || c == '}') ? -1 : 0;
+            ++mAt;
+        } while (depth > 0);
+    }
     JsonValue readValue() {
         skipSpace();
         JsonValue v;
@@ -95,6 +110,11 @@ private:
             return v;
         }
         const std::size_t start = mAt;
+        if (peek() == '[' || peek() == '{') {
+            skipNested();
+            v.text = mText.substr(start, mAt - start);
+            return v;
+        }
         while (mAt < mText.size() && !std::strchr(",} \t\r\n", mText[mAt])) ++mAt;
         v.text = mText.substr(start, mAt - start);
         if (v.text == "true" || v.text == "false" || v.text == "null") return v;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 
 namespace firn {
 
@@ -39,12 +40,30 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     auto fmaxNan = [](double a, double b) {
         return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b);
     };
-    auto fminNan = [](double a, double b) {
-        return std::isnan(a) ? b : std::isnan(b) ? a : std::min(a, b);
-    };
     into.frontX = fmaxNan(into.frontX, d.frontX);
-    into.crackMinX = fminNan(into.crackMinX, d.crackMinX);
-    into.crackMaxX = fmaxNan(into.crackMaxX, d.crackMaxX);
+    if (!d.crackCells.empty()) {
+        std::vector<std::int64_t> cells;
+        cells.reserve(into.crackCells.size() + d.crackCells.size());
+        std::set_union(into.crackCells.begin(), into.crackCells.end(), d.crackCells.begin(),
+                       d.crackCells.end(), std::back_inserter(cells));
+        into.crackCells = std::move(cells);
+    }
+}
+
+/// The crack's extent: the run of cells with the most failed cells (the lower one on ties),
+/// gaps of up to kCrackGapCells bridged.
+void crackExtent(FrameDiagnostics& d, double dx) {
+    const std::vector<std::int64_t>& c = d.crackCells;
+    std::size_t bestBegin = 0, bestEnd = 0;
+    for (std::size_t begin = 0; begin < c.size();) {
+        std::size_t end = begin + 1;
+        while (end < c.size() && c[end] - c[end - 1] <= kCrackGapCells + 1) ++end;
+        if (end - begin > bestEnd - bestBegin) bestBegin = begin, bestEnd = end;
+        begin = end;
+    }
+    if (bestEnd == bestBegin) return;
+    d.crackMinX = (double(c[bestBegin]) + 0.5) * dx;
+    d.crackMaxX = (double(c[bestEnd - 1]) + 0.5) * dx;
 }
 
 FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
@@ -78,12 +97,12 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         if (ps.plastic[i].flags & kFlagFailed) d.failedFraction += m;
         if (mat.model == MaterialModel::WeakLayer) {
             d.hasWeakLayer = true;
-            if (ps.plastic[i].eta > 0.f) {
-                d.crackMinX = std::isnan(d.crackMinX) ? x[0] : std::min(d.crackMinX, x[0]);
-                d.crackMaxX = std::isnan(d.crackMaxX) ? x[0] : std::max(d.crackMaxX, x[0]);
-            }
+            if (ps.plastic[i].eta > 0.f)
+                d.crackCells.push_back(std::int64_t(std::floor(x[0] / world.dx)));
         }
     }
+    std::sort(d.crackCells.begin(), d.crackCells.end());
+    d.crackCells.erase(std::unique(d.crackCells.begin(), d.crackCells.end()), d.crackCells.end());
     return d;
 }
 
@@ -98,6 +117,7 @@ FrameDiagnostics computeDiagnostics(const World& world) {
     FrameDiagnostics total;
     total.topY = -std::numeric_limits<double>::infinity();
     for (const FrameDiagnostics& d : perLeaf) merge(total, d);
+    crackExtent(total, world.dx);
     if (total.mass > 0) {
         total.centreOfMass /= total.mass;
         total.failedFraction /= total.mass;

@@ -98,7 +98,7 @@ std::vector<SlabSample> slabSamples(const World& world) {
     const ParticleSet& ps = world.particles;
     std::vector<std::uint32_t> slab;
     for (std::size_t i = 0; i < ps.size(); ++i)
-        if (world.materials[ps.material[i]].model == MaterialModel::Snow) slab.push_back(i);
+        if (world.materials[ps.material[i]].slab) slab.push_back(i);
     std::vector<SlabSample> samples(slab.size());
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, slab.size(), 4096), [&](const auto& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k) {

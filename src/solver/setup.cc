@@ -280,6 +280,26 @@ std::vector<bool> restingBodies(const SceneDesc& scene, const World& world,
     return resting;
 }
 
+/// Material::slab: the snow materials of layers on a weak layer; all snow without a weak layer.
+void markSlabMaterials(const SceneDesc& scene, std::vector<Material>& materials) {
+    auto isWeakLayerBody = [&](const std::string& name) {
+        for (const BodyDesc& b : scene.bodies)
+            if (!name.empty() && b.name == name)
+                return materials[std::size_t(b.materialIndex)].model == MaterialModel::WeakLayer;
+        return false;
+    };
+    bool anyWeakLayer = false;
+    for (const BodyDesc& b : scene.bodies)
+        anyWeakLayer = anyWeakLayer ||
+                       materials[std::size_t(b.materialIndex)].model == MaterialModel::WeakLayer;
+    for (const BodyDesc& b : scene.bodies) {
+        Material& m = materials[std::size_t(b.materialIndex)];
+        if (m.model != MaterialModel::Snow) continue;
+        if (!anyWeakLayer || (b.shape == BodyShape::Layer && isWeakLayerBody(b.onTopOf)))
+            m.slab = true;
+    }
+}
+
 /// Seeds the bodies in two passes (count, then fill) so the particle arrays are allocated once
 /// at their final size: growing them would transiently need up to twice the memory.
 void seedBodies(const SceneDesc& scene, World& world) {
@@ -326,6 +346,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
     w.sleepSteps = scene.grid.sleepSteps;
     for (const MaterialDesc& m : scene.materials)
         w.materials.push_back(Material::fromDesc(m, w.dim));
+    markSlabMaterials(scene, w.materials);
     for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));
 
     w.particles.dim = w.dim;
