@@ -2,6 +2,10 @@
 #include "test_util.h"
 
 #include <firn/diagnostics.h>
+#include <firn/solver.h>
+
+#include <cmath>
+#include <string>
 
 #include <catch2/catch.hpp>
 
@@ -91,4 +95,43 @@ TEST_CASE("crack tracker interpolates its tip in time and knows its direction", 
     CHECK(crack.tipAt(0.1) == Approx(5.1));  // first frame: the down-slope end
     CHECK(crack.tipAt(0.25) == Approx(4.0)); // halfway from 4.5 to 3.5
     CHECK(crack.tipAt(0.5) == Approx(3.5));  // after the last frame: the last tip
+}
+
+TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",
+          "[diagnostics]") {
+    const std::string text =
+        "[simulation]\nname = \"crack\"\ndimension = 2\nend_time = 0.1\n"
+        "[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
+        "[[material]]\nname = \"weak\"\nmodel = \"weak_layer\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
+        "[[body]]\nmaterial = \"weak\"\nshape = \"layer\"\nthickness = 0.1\n"
+        "x_range = [0.0, 5.0]\n";
+    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    ParticleSet& ps = world->particles;
+    REQUIRE(std::isnan(computeDiagnostics(*world).crackMinX)); // nothing has failed
+    // A crack over x in [1, 2] m, a gap of 3 cells bridged inside it ([1.5, 1.8] intact), and
+    // one stray particle at x > 4.5 (more than kCrackGapCells away).
+    bool stray = false;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const float x = ps.x[i][0];
+        if ((x > 1.f && x < 1.5f) || (x > 1.8f && x < 2.f)) ps.plastic[i].eta = 0.1f;
+        if (x > 4.5f && !stray) ps.plastic[i].eta = 0.1f, stray = true;
+    }
+    const FrameDiagnostics d = computeDiagnostics(*world);
+    CHECK(d.crackMinX == Approx(1.05)); // cell centres
+    CHECK(d.crackMaxX == Approx(1.95));
+}
+
+TEST_CASE("crack tracker restarts at a new, larger crack that does not overlap the old one",
+          "[diagnostics]") {
+    CrackTracker crack;
+    crack.update(crackFrame(4.6, 4.65), 0.0); // a few particles yielded under the static load
+    crack.update(crackFrame(4.6, 4.65), 0.1);
+    crack.update(crackFrame(12.5, 13.5), 0.2); // the trigger's crack
+    crack.update(crackFrame(10.5, 14.0), 0.22);
+    REQUIRE(crack.direction() == -1); // up-slope: from the trigger, not from the stray
+    REQUIRE(crack.tip() == Approx(10.5));
+    REQUIRE(crack.speed() == Approx(100.0));
+    REQUIRE(std::isnan(crack.tipAt(0.1))); // before the new crack
+    REQUIRE(crack.distance() == Approx(2.5));
 }

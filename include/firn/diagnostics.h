@@ -50,7 +50,8 @@ FrameDiagnostics computeDiagnostics(const World& world);
 class CrackTracker {
 public:
     /// The leading tip is the end of the eta > 0 extent that has grown more since the crack
-    /// first appeared (down-slope, +x, on ties); its speed is its advance between frames.
+    /// first appeared (down-slope, +x, on ties); its speed is its advance between frames. An
+    /// extent that does not overlap the previous one is a new crack: tracking restarts there.
     void update(const FrameDiagnostics& d, double time);
     double tip() const { return mTip; }     ///< m, NaN before the crack appears
     double speed() const { return mSpeed; } ///< m/s since the previous frame, NaN if none

@@ -10,6 +10,14 @@ namespace firn {
 void CrackTracker::update(const FrameDiagnostics& d, double time) {
     mSpeed = std::nan("");
     if (std::isnan(d.crackMinX)) return;
+    // A crack that does not overlap the tracked one has become the largest (the tracked one was
+    // a few particles that yielded under the static load, say): track the new one from here.
+    const bool newCrack = !std::isnan(mMinX0) && (d.crackMinX > mMaxX || d.crackMaxX < mMinX);
+    if (newCrack) {
+        mMinX0 = std::nan("");
+        mMaxSpeed = 0.0;
+        mHistory.clear();
+    }
     if (std::isnan(mMinX0)) {
         mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
         mTime = time;
