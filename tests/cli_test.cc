@@ -33,33 +33,7 @@ using firn::test::TempDir;
 
 namespace {
 
-// A 2D granular box resting on a plane: 200 particles, 4 frames, well under a second.
-// Bad scenes below replace one line of it, so the line numbers here matter.
-const std::string kTiny = R"([simulation]
-name = "tiny"
-dimension = 2
-end_time = 0.1
-frame_rate = 30
-
-[grid]
-dx = 0.1
-particles_per_cell = 4
-
-[[material]]
-name = "snow"
-model = "granular"
-
-[[terrain]]
-shape = "plane"
-point = [0.0, 0.0]
-normal = [0.0, 1.0]
-
-[[body]]
-material = "snow"
-shape = "box"
-min = [0.0, 0.0]
-max = [1.0, 0.5]
-)";
+const std::string& kTiny = firn::test::kTinyScene;
 
 // A 3D scene on a heightfield file that does not exist (heightfields are 3D only).
 const std::string kMissingDem = R"([simulation]

@@ -26,32 +26,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A 2D granular box on a plane: 200 particles, 4 frames, a fraction of a second.
-const std::string kTiny = R"([simulation]
-name = "tiny"
-dimension = 2
-end_time = 0.1
-frame_rate = 30
-
-[grid]
-dx = 0.1
-particles_per_cell = 4
-
-[[material]]
-name = "snow"
-model = "granular"
-
-[[terrain]]
-shape = "plane"
-point = [0.0, 0.0]
-normal = [0.0, 1.0]
-
-[[body]]
-material = "snow"
-shape = "box"
-min = [0.0, 0.0]
-max = [1.0, 0.5]
-)";
+const std::string& kTiny = firn::test::kTinyScene;
 
 const std::string kSecondBody = R"(
 [[body]]

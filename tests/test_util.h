@@ -11,6 +11,34 @@
 
 namespace firn::test {
 
+/// A 2D granular box resting on a plane: 200 particles, 4 frames, well under a second. Tests
+/// that make bad scenes replace one line of it, so its line numbers matter.
+inline const std::string kTinyScene = R"([simulation]
+name = "tiny"
+dimension = 2
+end_time = 0.1
+frame_rate = 30
+
+[grid]
+dx = 0.1
+particles_per_cell = 4
+
+[[material]]
+name = "snow"
+model = "granular"
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+
+[[body]]
+material = "snow"
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 0.5]
+)";
+
 /// Parses scene text as if it came from "tests/<name>.toml".
 inline SceneDesc sceneFromText(const std::string& text, const std::string& name = "inline") {
     return parseScene(text, "tests/" + name + ".toml");
