@@ -135,3 +135,26 @@ TEST_CASE("crack tracker restarts at a new, larger crack that does not overlap t
     REQUIRE(std::isnan(crack.tipAt(0.1))); // before the new crack
     REQUIRE(crack.distance() == Approx(2.5));
 }
+
+TEST_CASE("runout and alpha angle measure the snow that moved, not a base that never did",
+          "[diagnostics]") {
+    // A 10 m layer of which only x < 2 m has moved: the deposit's tip is at 2 m, not 10 m.
+    const std::string text =
+        "[simulation]\nname = \"runout\"\ndimension = 2\nend_time = 0.1\n"
+        "[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
+        "[[material]]\nname = \"snow\"\nmodel = \"elastic\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
+        "[[body]]\nmaterial = \"snow\"\nshape = \"layer\"\nthickness = 0.2\n"
+        "x_range = [0.0, 10.0]\n";
+    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    ParticleSet& ps = world->particles;
+    REQUIRE(std::isnan(computeDiagnostics(*world).movedFarX)); // nothing moved
+    for (std::size_t i = 0; i < ps.size(); ++i)
+        if (ps.x[i][0] < 2.f) ps.plastic[i].flags |= kFlagMoved;
+    const FrameDiagnostics d = computeDiagnostics(*world);
+    CHECK(d.movedFarX == Approx(1.975)); // the last particle column before x = 2 m
+    CHECK(d.movedTopY == Approx(0.175));
+    // 1 m of drop over 1 m of run: 45 degrees; a deposit not beyond the top: undefined.
+    CHECK(alphaAngleDeg(0.0, 1.0, 1.0, 0.0) == Approx(45.0));
+    CHECK(std::isnan(alphaAngleDeg(2.0, 1.0, 1.0, 0.0)));
+}

@@ -25,6 +25,12 @@ struct FrameDiagnostics {
     double maxSpeed = 0;            ///< m/s
     double topX = 0, topY = 0;      ///< highest particle, m
     double frontX = std::numeric_limits<double>::quiet_NaN(); ///< max x of moving snow (> 0.1 m/s)
+    /// Snow that has moved (kFlagMoved): its highest particle (the release's top while it
+    /// starts) and its farthest particle along x (the deposit's tip at the end), m; NaN if none.
+    double movedTopX = std::numeric_limits<double>::quiet_NaN();
+    double movedTopY = std::numeric_limits<double>::quiet_NaN();
+    double movedFarX = std::numeric_limits<double>::quiet_NaN();
+    double movedFarY = std::numeric_limits<double>::quiet_NaN();
     bool hasWeakLayer = false;
     /// Cells along x (width dx) that hold weak-layer particles with eta > 0, sorted, unique.
     std::vector<std::int64_t> crackCells;
@@ -92,10 +98,9 @@ private:
     double mE0, mBudget, mGravity0;
 };
 
-/// Alpha angle, degrees: from the highest point of the release (the first frame's highest
-/// particle) to the farthest point of the deposit (the particle with the largest x now), from
-/// the horizontal. NaN when nothing moved beyond the release point.
-double alphaAngleDeg(const FrameDiagnostics& first, const World& world);
+/// Alpha angle, degrees: from the highest point of the release (top) to the farthest point of
+/// the deposit (far), from the horizontal. NaN when the deposit is not beyond the top along x.
+double alphaAngleDeg(double topX, double topY, double farX, double farY);
 
 /// Particle attributes of outputs.md for the particle cache (p, q from the stored Kirchhoff
 /// stress as defined in the paper).

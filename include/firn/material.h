@@ -50,6 +50,10 @@ constexpr std::uint32_t kFlagInCut = 8u;
 constexpr std::uint32_t kFlagOutsideSettling = 16u;
 /// Snow slab particle softened to slabFractured() at least once (fractureTime says when).
 constexpr std::uint32_t kFlagSlabFractured = 32u;
+/// Faster than kMovedSpeed at least once since t = 0: part of the avalanche (released or
+/// entrained), what runout_x and alpha_angle_deg measure (not snow that never moved).
+constexpr std::uint32_t kFlagMoved = 64u;
+constexpr float kMovedSpeed = 0.1f; ///< m/s, outputs.md's threshold for moving snow (front_x)
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).
 struct CamClayParams {

@@ -133,6 +133,9 @@ struct RunState {
     SlabFractureTracker slab;
     double lastDt = 0;
     double maxSpeed = 0;
+    /// The release's top: the highest point moved snow has had over the frames, m (NaN until
+    /// something moves). Snow starts moving where it was, so this is the crown's height.
+    double releaseTopX = std::nan(""), releaseTopY = std::nan("");
     FrameDiagnostics first, last;
     Clock::time_point start = Clock::now();
 };
@@ -156,6 +159,8 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
     const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
+    if (d.movedTopY > s.releaseTopY || (std::isnan(s.releaseTopY) && !std::isnan(d.movedTopY)))
+        s.releaseTopX = d.movedTopX, s.releaseTopY = d.movedTopY;
     const double nan = std::nan("");
     s.metrics.appendRow({std::to_string(k),
                          cell(w.time),
@@ -236,10 +241,10 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("mean_crack_speed", s.crack.meanSpeed());
     j.set("crack_propagation_distance", s.crack.distance());
     writeSlabSummary(s.slab, j);
-    double runout = -std::numeric_limits<double>::infinity();
-    for (const Vec3f& x : w.particles.x) runout = std::max(runout, double(x[0]));
-    j.set("runout_x", runout);
-    j.set("alpha_angle_deg", alphaAngleDeg(s.first, w));
+    // Of the snow that moved (kFlagMoved): a base or a slope that never moved is no deposit.
+    j.set("runout_x", s.last.movedFarX);
+    j.set("alpha_angle_deg",
+          alphaAngleDeg(s.releaseTopX, s.releaseTopY, s.last.movedFarX, s.last.movedFarY));
     const SettleReport& settle = w.settle;
     j.setBool("settle", settle.ran);
     if (settle.ran) {

@@ -41,6 +41,10 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
         return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b);
     };
     into.frontX = fmaxNan(into.frontX, d.frontX);
+    if (d.movedTopY > into.movedTopY || std::isnan(into.movedTopY))
+        if (!std::isnan(d.movedTopY)) into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX;
+    if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
+        if (!std::isnan(d.movedFarX)) into.movedFarX = d.movedFarX, into.movedFarY = d.movedFarY;
     if (!d.crackCells.empty()) {
         std::vector<std::int64_t> cells;
         cells.reserve(into.crackCells.size() + d.crackCells.size());
@@ -95,6 +99,10 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         if (x[1] > d.topY) d.topY = x[1], d.topX = x[0];
         if (speed > kMovingSpeed) d.frontX = std::isnan(d.frontX) ? x[0] : std::max(d.frontX, x[0]);
         if (ps.plastic[i].flags & kFlagFailed) d.failedFraction += m;
+        if (ps.plastic[i].flags & kFlagMoved) {
+            if (!(x[1] <= d.movedTopY)) d.movedTopY = x[1], d.movedTopX = x[0];
+            if (!(x[0] <= d.movedFarX)) d.movedFarX = x[0], d.movedFarY = x[1];
+        }
         if (mat.model == MaterialModel::WeakLayer) {
             d.hasWeakLayer = true;
             if (ps.plastic[i].eta > 0.f)

@@ -88,16 +88,10 @@ std::string StabilityWatch::check(const FrameDiagnostics& d, const World& world)
     return why.str();
 }
 
-double alphaAngleDeg(const FrameDiagnostics& first, const World& world) {
-    const ParticleSet& ps = world.particles;
-    if (ps.size() == 0) return std::nan("");
-    std::size_t far = 0;
-    for (std::size_t i = 1; i < ps.size(); ++i)
-        if (ps.x[i][0] > ps.x[far][0]) far = i;
-    const double run = ps.x[far][0] - first.topX;
-    const double drop = first.topY - ps.x[far][1];
-    if (run <= 0) return std::nan("");
-    return std::atan2(drop, run) * 180.0 / M_PI;
+double alphaAngleDeg(double topX, double topY, double farX, double farY) {
+    const double run = farX - topX;
+    if (!(run > 0)) return std::nan("");
+    return std::atan2(topY - farY, run) * 180.0 / M_PI;
 }
 
 } // namespace firn

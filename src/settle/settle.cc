@@ -147,6 +147,7 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     report.time = w.time;
     report.steps = w.steps;
     stopAll(w.particles);
+    for (PlasticState& s : w.particles.plastic) s.flags &= ~kFlagMoved; // settling is not motion
     w.time = 0.0;
     w.steps = 0;
     // A slab that fractured while settling is fractured at t = 0.

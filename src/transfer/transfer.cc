@@ -317,6 +317,7 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                     const Mat3f dtC = dt * C;
                     ps.H[i] += dtC + dtC * ps.H[i];
                     const float speed = ps.v[i].norm();
+                    if (speed > kMovedSpeed) ps.plastic[i].flags |= kFlagMoved;
                     // NaN compares false: make it win the reduction so the caller sees it.
                     maxSpeed = speed == speed ? std::max(maxSpeed, speed)
                                               : std::numeric_limits<float>::quiet_NaN();
