@@ -307,7 +307,7 @@ bool waitForLines(const std::string& path, int lines, double timeoutSeconds) {
     return false;
 }
 
-const std::string kDefaultScene = std::string(FIRN_SOURCE_DIR) + "/scenes/default.toml";
+const std::string kGranularScene = std::string(FIRN_SOURCE_DIR) + "/scenes/granular-slide.toml";
 
 /// The usage error text main prints for `message`.
 std::string usageError(const std::string& message) {
@@ -467,7 +467,7 @@ TEST_CASE("firn check prints particles and dx and a step estimate that --set cha
         std::string dx;
     };
     auto check = [&](const std::vector<std::string>& extra) {
-        std::vector<std::string> args = {"check", kDefaultScene};
+        std::vector<std::string> args = {"check", kGranularScene};
         args.insert(args.end(), extra.begin(), extra.end());
         const Outcome o = runFirn(args, dir);
         INFO(o.out << o.err);
@@ -705,7 +705,7 @@ TEST_CASE("SIGINT and SIGTERM stop a run cleanly with exit code 130", "[cli]") {
         const std::string out = dir.path() + "/out" + std::to_string(sig);
         const Capture cap = captureFiles(dir.path());
         // Two and a half minutes of simulation: it only ends early by the signal.
-        const pid_t pid = spawnFirn({"run", kDefaultScene, "--out", out, "--threads", "2", "--set",
+        const pid_t pid = spawnFirn({"run", kGranularScene, "--out", out, "--threads", "2", "--set",
                                      "simulation.end_time=60"},
                                     cap);
         // Mid-run: header plus frames 0 and 1 written, so the signal handlers are in place.
@@ -761,7 +761,7 @@ TEST_CASE("A signal during scene setup still stops the run cleanly", "[cli]") {
     const Capture cap = captureFiles(dir.path());
     // About 230k particles: building the world takes a few tenths of a second.
     const pid_t pid =
-        spawnFirn({"run", kDefaultScene, "--out", out, "--quiet", "--set", "grid.dx=0.01"}, cap);
+        spawnFirn({"run", kGranularScene, "--out", out, "--quiet", "--set", "grid.dx=0.01"}, cap);
     // scene.toml is written just before the world is built.
     bool setup = false;
     for (int i = 0; i < 5000 && !setup; ++i) {

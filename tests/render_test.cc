@@ -51,9 +51,9 @@ std::string slurp(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-/// Runs the default scene (2D release on the 25 m slope) for `endTime` seconds into `dir`.
-void runDefaultScene(const TempDir& dir, double endTime) {
-    const std::string path = FIRN_SOURCE_DIR "/scenes/default.toml";
+/// Runs scenes/granular-slide.toml (2D granular release on the 25 m slope) for `endTime` seconds into `dir`.
+void runGranularSlide(const TempDir& dir, double endTime) {
+    const std::string path = FIRN_SOURCE_DIR "/scenes/granular-slide.toml";
     const SceneDesc scene =
         parseScene(slurp(path), path, {"simulation.end_time=" + std::to_string(endTime)});
     RunOptions run;
@@ -179,7 +179,7 @@ TEST_CASE("A contact sheet tiles and box-filters its frames", "[render]") {
 
 TEST_CASE("firn render draws the avalanche, framed, coloured over its range", "[render][e2e]") {
     TempDir dir("firn-render");
-    runDefaultScene(dir, 1.5);
+    runGranularSlide(dir, 1.5);
 
     RenderOptions options;
     options.dimension = 2;
@@ -252,7 +252,7 @@ TEST_CASE("firn render names what is missing", "[render]") {
 TEST_CASE("Videos come from ffmpeg when it is there, and are skipped cleanly when not",
           "[render]") {
     TempDir dir("firn-render-video");
-    runDefaultScene(dir, 0.25);
+    runGranularSlide(dir, 0.25);
     RenderOptions options;
     options.dimension = 2;
     options.view.width = 160, options.view.height = 90;

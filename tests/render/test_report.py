@@ -102,7 +102,7 @@ PST_3D = (PST.replace('name = "report-pst"', 'name = "report-pst3d"')
           .replace("normal = [0.0, 1.0]", "normal = [0.0, 1.0, 0.0]")
           .replace("x_range = [0.0, 3.0]", "x_range = [0.0, 1.5]\nz_range = [0.0, 0.25]"))
 
-# A granular slide without any weak layer (scenes/default.toml, coarser and shorter): ~1 s.
+# A granular slide without any weak layer (scenes/granular-slide.toml, coarser and shorter): ~1 s.
 SLIDE = """
 [simulation]
 name = "report-slide"
