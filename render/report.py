@@ -168,7 +168,10 @@ MAP_ROWS = (
      "failed fraction", "failed / elastic"),
     ("p", "weak-layer pressure p", CMAP_P, "p (kPa)", "pressure p"),
     ("slab_speed", "slab speed above the weak layer", CMAP_SPEED, "speed (m/s)", "slab speed"),
+    ("slab_failed_fraction", "slab above: failed (white) / elastic (black)", CMAP_FAILED,
+     "failed fraction", "slab failed"),
 )
+FRACTION_KEYS = ("failed_fraction", "slab_failed_fraction")
 
 
 def map_value(run, key):
@@ -180,7 +183,7 @@ def map_ranges(run, frames_mask):
     ranges = {}
     for key, *_ in MAP_ROWS:
         values = map_value(run, key)[frames_mask]
-        if key == "failed_fraction":
+        if key in FRACTION_KEYS:
             ranges[key] = (0.0, 1.0)
         elif key == "slab_speed":
             ranges[key] = (0.0, max(shared_range(values)[1], 1e-3))
@@ -203,7 +206,8 @@ def failure_maps_3d(run, path):
     height = extent[3] - extent[2]
     panel_w = 3.6
     panel_h = max(0.9, min(3.6, panel_w * height / max(width, 1e-9))) + 0.7
-    fig, axes = plt.subplots(3, n, figsize=(panel_w * n + 1.2, panel_h * 3), squeeze=False,
+    rows = len(MAP_ROWS)
+    fig, axes = plt.subplots(rows, n, figsize=(panel_w * n + 1.2, panel_h * rows), squeeze=False,
                              constrained_layout=True)
     for r, (key, _, cmap, unit, short) in enumerate(MAP_ROWS):
         values = map_value(run, key)
@@ -242,7 +246,8 @@ def xt_grid(run, key):
 
 def failure_maps_2d(run, path):
     """x-time images: the weak layer along the slope (horizontal) as time goes on (upwards)."""
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.8), constrained_layout=True)
+    fig, axes = plt.subplots(2, 2, figsize=(15, 9.0), constrained_layout=True)
+    axes = axes.ravel()
     ranges = map_ranges(run, np.ones(run.weak["frame"].size, dtype=bool))
     tip_t, tip_x = run.column("time"), run.column("crack_tip_x")
     for ax, (key, title, cmap, unit, _) in zip(axes, MAP_ROWS):
@@ -268,7 +273,8 @@ def failure_maps_2d(run, path):
 def failure_profiles_2d(run, path):
     """The same quantities along x at the map times, as lines."""
     w = run.weak
-    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True, constrained_layout=True)
+    fig, axes = plt.subplots(len(MAP_ROWS), 1, figsize=(10, 2.5 * len(MAP_ROWS)), sharex=True,
+                             constrained_layout=True)
     colours = plt.get_cmap("viridis")(np.linspace(0, 0.9, max(len(run.map_frames), 1)))
     for ax, (key, title, _, unit, _) in zip(axes, MAP_ROWS):
         values = map_value(run, key)
@@ -280,7 +286,8 @@ def failure_profiles_2d(run, path):
         ax.set_ylabel(unit)
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
-    axes[0].set_ylim(-0.05, 1.05)
+        if key in FRACTION_KEYS:
+            ax.set_ylim(-0.05, 1.05)
     axes[0].legend(fontsize=8, ncol=min(len(run.map_frames), 4))
     axes[-1].set_xlabel("x, down-slope (m)")
     return save(fig, path)

@@ -33,17 +33,20 @@ void addParticle(ParticleFrame& f, std::array<float, 3> P, std::int32_t material
 
 } // namespace
 
-TEST_CASE("2D weak-layer cells: failed share, means and the slab speed above", "[report]") {
+TEST_CASE("2D weak-layer cells: failed share, means, and the slab speed and failed share above",
+          "[report]") {
     ParticleFrame f;
     // Cell 0 (x in [0, 0.1)): one failed and one elastic weak-layer particle under a slab
     // particle moving at 5 m/s.
     addParticle(f, {0.02f, 0.01f, 0}, kWeak, {}, true, 0.2f, 1000);
     addParticle(f, {0.07f, 0.02f, 0}, kWeak, {}, false, 0.0f, 3000);
     addParticle(f, {0.05f, 0.30f, 0}, kSlab, {3, 4, 0});
+    // A yielded, resting base particle below the weak layer: not slab, counted in neither mean.
+    addParticle(f, {0.05f, -0.10f, 0}, kSlab, {}, true);
     // Cell 1: failed weak layer, two slab particles at 1 and 3 m/s.
     addParticle(f, {0.15f, 0.01f, 0}, kWeak, {}, true, 0.4f, 500);
     addParticle(f, {0.12f, 0.30f, 0}, kSlab, {1, 0, 0});
-    addParticle(f, {0.18f, 0.40f, 0}, kSlab, {0, -3, 0});
+    addParticle(f, {0.18f, 0.40f, 0}, kSlab, {0, -3, 0}, true);
     // Cell 2: slab only (a saw cut): no row. Cell -1: weak layer without slab above.
     addParticle(f, {0.25f, 0.30f, 0}, kSlab, {9, 0, 0});
     addParticle(f, {-0.05f, 0.01f, 0}, kWeak, {}, false, 0.0f, 200);
@@ -59,9 +62,12 @@ TEST_CASE("2D weak-layer cells: failed share, means and the slab speed above", "
     CHECK(cells[1].eta == Approx(0.1));
     CHECK(cells[1].p == Approx(2000));
     CHECK(cells[1].slabSpeed == Approx(5));
+    CHECK(cells[1].slabFailedFraction == 0.0);
+    CHECK(std::isnan(cells[0].slabFailedFraction));
     CHECK(cells[2].x == Approx(0.15));
     CHECK(cells[2].failedFraction == 1.0);
     CHECK(cells[2].slabSpeed == Approx(2));
+    CHECK(cells[2].slabFailedFraction == Approx(0.5));
 }
 
 TEST_CASE("3D weak-layer cells form an x-z raster in z-then-x order", "[report]") {

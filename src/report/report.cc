@@ -113,7 +113,7 @@ RunFolder openRunFolder(const std::string& outDir) {
 class WeakLayerTable {
 public:
     WeakLayerTable()
-        : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed\n") {}
+        : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed,slab_failed_fraction\n") {}
 
     void add(const CachedFrame& frame, const std::vector<report::WeakLayerCell>& cells) {
         const std::string prefix =
@@ -121,7 +121,7 @@ public:
         for (const auto& c : cells) {
             mText += prefix + csvNumber(c.x) + "," + csvNumber(c.z) + "," +
                      csvNumber(c.failedFraction) + "," + csvNumber(c.eta) + "," + csvNumber(c.p) +
-                     "," + csvNumber(c.slabSpeed) + "\n";
+                     "," + csvNumber(c.slabSpeed) + "," + csvNumber(c.slabFailedFraction) + "\n";
         }
     }
     const std::string& text() const { return mText; }

@@ -15,12 +15,17 @@ struct WeakLayerCell {
     double failedFraction = 0; ///< share of them that have yielded at least once
     double eta = 0;            ///< their mean anticrack strain
     double p = 0;              ///< their mean pressure, Pa
-    /// Mean speed of the other (slab) particles in the same column, m/s; NaN when it has none.
+    /// Mean speed of the slab in the same column, m/s: the other particles above the weak
+    /// layer's mean height there (not the base below it); NaN when it has none.
     double slabSpeed = 0;
+    /// Share of those slab particles that have yielded at least once (Fig. A1's slab map); NaN
+    /// when it has none.
+    double slabFailedFraction = 0;
 };
 
 /// Bins `frame` on cells of size `dx` (x in 2D, x-z in 3D). isWeakLayer[m] says whether
-/// material index m is a weak layer; other indices count as slab. Cells come ordered by z, then
+/// material index m is a weak layer; other particles above the weak layer's mean height in
+/// the column count as slab. Cells come ordered by z, then
 /// x, so the output does not depend on the particle order.
 std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
                                         const std::vector<bool>& isWeakLayer, double dx,
