@@ -140,6 +140,26 @@ class Run:
         return math.hypot(x1 - x0, y1 - y0)
 
 
+def ground_profile(run):
+    """Slope angle (degrees) and curvature (1/m) of the scene's first `profile` terrain along x,
+    or None (planes and heightfields have no single line). The points are the user's: angle per
+    segment at its midpoint, curvature from the change of angle between neighbouring segments
+    (positive where the slope eases down-slope: concave, where the paper's crack speeds up)."""
+    for terrain in run.scene.get("terrain", []):
+        if terrain.get("shape") != "profile":
+            continue
+        pts = np.asarray(terrain.get("points", []), dtype=float)
+        if pts.ndim != 2 or len(pts) < 3:
+            return None
+        dx, dy = np.diff(pts[:, 0]), np.diff(pts[:, 1])
+        angle = np.arctan2(-dy, dx)  # positive where the ground falls with x
+        length = np.hypot(dx, dy)
+        mid = pts[:-1, 0] + dx / 2
+        curvature = -np.diff(angle) / ((length[:-1] + length[1:]) / 2)
+        return mid, np.degrees(angle), pts[1:-1, 0], curvature
+    return None
+
+
 def save(fig, path):
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
@@ -298,7 +318,15 @@ def failure_profiles_2d(run, path):
 def crack_chart(run, path):
     """Fig. 3 bottom: crack tip against time, crack speed against position along the slope."""
     t, tip, speed = run.column("time"), run.column("crack_tip_x"), run.column("crack_speed")
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    profile = ground_profile(run)
+    if profile is None:
+        fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
+    else:
+        fig = plt.figure(figsize=(12, 6.0), constrained_layout=True)
+        grid = fig.add_gridspec(3, 2)
+        a = fig.add_subplot(grid[:, 0])
+        b = fig.add_subplot(grid[:2, 1])
+        g = fig.add_subplot(grid[2, 1], sharex=b)
     a.plot(t, tip, "o-", ms=3, color="#1f77b4", label="leading tip")
     for name, style in (("crack_tip_min_x", ":"), ("crack_tip_max_x", "--")):
         if name in run.metrics:
@@ -322,6 +350,22 @@ def crack_chart(run, path):
     b.set_title("crack speed along the slope")
     b.legend(fontsize=8)
     b.grid(alpha=0.3)
+    if profile is not None:
+        # Fig. 3 bottom reads the speed against the slope angle and the curvature beneath it.
+        mid, angle, knots, curvature = profile
+        g.plot(mid, angle, color="0.3", lw=1.3, label="slope angle")
+        g.set_ylabel("slope (deg)")
+        g.set_xlabel("x (m)")
+        g.grid(alpha=0.3)
+        c = g.twinx()
+        c.plot(knots, curvature, color="#2ca02c", lw=1.0, label="curvature")
+        c.axhline(0.0, color="#2ca02c", lw=0.6, ls=":")
+        c.set_ylabel("curvature (1/m), > 0 concave", color="#2ca02c")
+        moving_x = tip[moving]
+        if moving_x.size:
+            pad = max(1.0, 0.05 * (moving_x.max() - moving_x.min()))
+            b.set_xlim(moving_x.min() - pad, moving_x.max() + pad)
+        g.legend(loc="upper right", fontsize=8)
     return save(fig, path)
 
 
