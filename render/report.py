@@ -338,7 +338,8 @@ def crack_chart(run, path):
     a.legend(fontsize=8)
     a.grid(alpha=0.3)
     moving = np.isfinite(speed) & np.isfinite(tip)
-    b.plot(tip[moving], speed[moving], "o-", ms=3, color="#d62728", label="between frames")
+    # Points, not a line: a crack that runs both ways would be joined across the slope.
+    b.plot(tip[moving], speed[moving], "o", ms=3.5, color="#d62728", label="between frames")
     for k, f in enumerate(run.slab_fractures):
         b.axvspan(f["x"] - run.dx / 2, f["x"] + run.dx / 2, color=SLAB_FRACTURE_COLOUR,
                   alpha=0.6, lw=0, label="slab fracture" if k == 0 else None)
