@@ -21,6 +21,18 @@ FrameDiagnostics crackFrame(double minX, double maxX) {
     return d;
 }
 
+/// A 2D layer of one material on a flat plane, seeded on a regular lattice (dx 0.1).
+std::string flatLayerScene(const std::string& model, double thickness, double length) {
+    return "[simulation]\nname = \"layer\"\ndimension = 2\nend_time = 0.1\n"
+           "[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
+           "[[material]]\nname = \"snow\"\nmodel = \"" +
+           model +
+           "\"\n"
+           "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
+           "[[body]]\nmaterial = \"snow\"\nshape = \"layer\"\nthickness = " +
+           std::to_string(thickness) + "\nx_range = [0.0, " + std::to_string(length) + "]\n";
+}
+
 } // namespace
 
 TEST_CASE("crack tracker follows the leading tip and fits a steady speed", "[diagnostics]") {
@@ -99,14 +111,8 @@ TEST_CASE("crack tracker interpolates its tip in time and knows its direction", 
 
 TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",
           "[diagnostics]") {
-    const std::string text =
-        "[simulation]\nname = \"crack\"\ndimension = 2\nend_time = 0.1\n"
-        "[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
-        "[[material]]\nname = \"weak\"\nmodel = \"weak_layer\"\n"
-        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
-        "[[body]]\nmaterial = \"weak\"\nshape = \"layer\"\nthickness = 0.1\n"
-        "x_range = [0.0, 5.0]\n";
-    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    auto world =
+        buildWorld(test::sceneFromText(flatLayerScene("weak_layer", 0.1, 5.0)), BuildStage::Seeded);
     ParticleSet& ps = world->particles;
     REQUIRE(std::isnan(computeDiagnostics(*world).crackMinX)); // nothing has failed
     // A crack over x in [1, 2] m, a gap of 3 cells bridged inside it ([1.5, 1.8] intact), and
@@ -139,14 +145,8 @@ TEST_CASE("crack tracker restarts at a new, larger crack that does not overlap t
 TEST_CASE("runout and alpha angle measure the snow that moved, not a base that never did",
           "[diagnostics]") {
     // A 10 m layer of which only x < 2 m has moved: the deposit's tip is at 2 m, not 10 m.
-    const std::string text =
-        "[simulation]\nname = \"runout\"\ndimension = 2\nend_time = 0.1\n"
-        "[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
-        "[[material]]\nname = \"snow\"\nmodel = \"elastic\"\n"
-        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
-        "[[body]]\nmaterial = \"snow\"\nshape = \"layer\"\nthickness = 0.2\n"
-        "x_range = [0.0, 10.0]\n";
-    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    auto world =
+        buildWorld(test::sceneFromText(flatLayerScene("elastic", 0.2, 10.0)), BuildStage::Seeded);
     ParticleSet& ps = world->particles;
     REQUIRE(std::isnan(computeDiagnostics(*world).movedFarX)); // nothing moved
     for (std::size_t i = 0; i < ps.size(); ++i)
