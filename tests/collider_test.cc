@@ -71,6 +71,36 @@ TEST_CASE("a bad DEM names the file and line", "[collider]") {
                         desc.file + ":4: error: heightfield: missing 'yllcorner'");
 }
 
+// The fuzz target's findings (fuzz/regressions/dem): each once crashed, allocated the header's
+// cell count before reading any data, or gave the collider non-finite heights and slopes.
+TEST_CASE("a DEM outside what the collider can hold is rejected", "[collider]") {
+    const auto errorOf = [](const std::string& text) -> std::string {
+        try {
+            Heightfield::parseEsriAscii(text, "d.asc");
+        } catch (const SceneError& e) {
+            return e.what();
+        }
+        return "no error";
+    };
+    const std::string corner = "xllcorner 0\nyllcorner 0\n";
+    CHECK(errorOf("ncols 3e9\nnrows 2\n" + corner + "cellsize 1\n1 2\n") ==
+          "d.asc:1: error: heightfield: needs ncols >= 2, nrows >= 2 and cellsize > 0");
+    CHECK(errorOf("ncols 2\nnrows 2e9\n" + corner + "cellsize 2\n") ==
+          "d.asc:6: error: heightfield: expected 4000000000 heights, the data ends in row 1");
+    CHECK(errorOf("ncols 2.5\nnrows 2\n" + corner + "cellsize 1\n1 2\n3 4\n") ==
+          "d.asc:1: error: heightfield: ncols and nrows must be whole numbers");
+    CHECK(errorOf("ncols 2\nnrows 2\n" + corner + "cellsize 5e-320\n1 2\n3 4\n") ==
+          "d.asc:1: error: heightfield: cellsize must be in [1e-06, 1e+06] m");
+    CHECK(errorOf("ncols 2\nnrows 2\n" + corner + "cellsize 1\n1 2\n3 7e38\n") ==
+          "d.asc:7: error: heightfield: height 7e+38 at row 2, column 2 is not within 1e+06 m "
+          "of 0");
+    // A data row may start with '+'; before, it was read as a header key.
+    const Heightfield h = Heightfield::parseEsriAscii(
+        "ncols 2\nnrows 2\nxllcenter 0\nyllcenter 0\ncellsize 1\n+1 +2\n3 4\n", "d.asc");
+    CHECK(h.heightAt(0.f, 1.f) == 1.f); // the first row is the northernmost
+    CHECK(h.heightAt(1.f, 0.f) == 4.f);
+}
+
 TEST_CASE("Coulomb friction on a grid node: stick, slip, separate", "[collider]") {
     TerrainDesc desc;
     desc.friction = 0.5;

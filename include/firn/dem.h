@@ -1,6 +1,8 @@
 // Digital elevation models: ESRI ASCII grids (.asc) as a terrain height y(x, z).
 #pragma once
 
+#include <cstddef>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -13,8 +15,12 @@ class Heightfield {
 public:
     /// Reads an ESRI ASCII grid (ncols, nrows, xllcorner|xllcenter, yllcorner|yllcenter,
     /// cellsize, optional NODATA_value, then nrows rows from north to south). Throws
-    /// SceneError naming the file and line of what is wrong (NODATA cells included).
+    /// SceneError naming the file and line of what is wrong (NODATA cells included), and for
+    /// values no DEM holds: cellsize outside [1e-6, 1e6] m, heights beyond +-1e6 m, a corner
+    /// beyond 1e9 m; these bounds keep the collider's float heights and slopes finite.
     static Heightfield readEsriAscii(const std::string& path);
+    /// The same from the file's text; `path` names the file in messages.
+    static Heightfield parseEsriAscii(const std::string& text, const std::string& path);
 
     float heightAt(float x, float z) const;
     /// dh/dx and dh/dz of the bilinear interpolant at (x, z).
@@ -29,6 +35,8 @@ private:
     double mCell = 1.0;          // m
     std::vector<float> mHeight;  // row-major from the south: index = row * columns + column
 
+    /// The reader of both: `size` bounds the memory reserved before the heights are read.
+    static Heightfield parse(std::istream& in, std::size_t size, const std::string& path);
     float at(int column, int row) const;
     /// Cell and fractions of (x, z), clamped to the grid.
     void locate(float x, float z, int& i, int& j, float& fx, float& fz) const;

@@ -5,6 +5,8 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <istream>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -17,6 +19,18 @@ std::string lower(std::string s) {
     return s;
 }
 
+// Far outside any real DEM, these keep the collider's float heights, slopes and normals finite.
+constexpr double kMinCell = 1e-6, kMaxCell = 1e6; // m
+constexpr double kMaxHeight = 1e6;                // |height|, m
+constexpr double kMaxCoordinate = 1e9;            // |centre of the lower-left cell|, m
+
+// A number as messages show it ("1e+06", "0.5").
+std::string formatNumber(double value) {
+    std::ostringstream out;
+    out << value;
+    return out.str();
+}
+
 [[noreturn]] void fail(const std::string& path, int line, const std::string& what) {
     throw SceneError(SourceLoc{path, line, 0}, "heightfield", what);
 }
@@ -24,19 +38,30 @@ std::string lower(std::string s) {
 } // namespace
 
 Heightfield Heightfield::readEsriAscii(const std::string& path) {
-    std::ifstream in(path);
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) fail(path, 0, "cannot open the DEM file");
+    const std::streamoff size = in.tellg();
+    in.seekg(0);
+    return parse(in, std::size_t(std::max<std::streamoff>(size, 0)), path);
+}
+
+Heightfield Heightfield::parseEsriAscii(const std::string& text, const std::string& path) {
+    std::istringstream in(text);
+    return parse(in, text.size(), path);
+}
+
+Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::string& path) {
     std::map<std::string, double> header;
-    std::string text;
+    std::string lineText;
     int line = 0;
     std::streampos dataStart = in.tellg();
-    while (std::getline(in, text)) {
+    while (std::getline(in, lineText)) {
         ++line;
-        std::istringstream words(text);
+        std::istringstream words(lineText);
         std::string key;
         double value = 0.0;
         if (!(words >> key) || std::isdigit(static_cast<unsigned char>(key[0])) || key[0] == '-' ||
-            key[0] == '.') {
+            key[0] == '+' || key[0] == '.') {
             --line;
             break; // the first data row
         }
@@ -50,35 +75,61 @@ Heightfield Heightfield::readEsriAscii(const std::string& path) {
     if (!xCentre && !header.count("xllcorner")) fail(path, line, "missing 'xllcorner'");
     if (!zCentre && !header.count("yllcorner")) fail(path, line, "missing 'yllcorner'");
 
-    Heightfield h;
-    h.mColumns = int(header["ncols"]), h.mRows = int(header["nrows"]);
-    h.mCell = header["cellsize"];
-    if (h.mColumns < 2 || h.mRows < 2 || !(h.mCell > 0.0))
+    // Checked as doubles before any conversion (a count beyond int is undefined behaviour), and
+    // bounded so that the collider's float heights and slopes stay finite (fuzz/README.md).
+    const double columns = header["ncols"], rows = header["nrows"], cell = header["cellsize"];
+    const double maxCount = std::numeric_limits<int>::max();
+    if (!(columns >= 2 && columns <= maxCount && rows >= 2 && rows <= maxCount && cell > 0.0))
         fail(path, 1, "needs ncols >= 2, nrows >= 2 and cellsize > 0");
+    if (columns != std::floor(columns) || rows != std::floor(rows))
+        fail(path, 1, "ncols and nrows must be whole numbers");
+    if (!(cell >= kMinCell && cell <= kMaxCell))
+        fail(path, 1,
+             "cellsize must be in [" + formatNumber(kMinCell) + ", " + formatNumber(kMaxCell) +
+                 "] m");
+    Heightfield h;
+    h.mColumns = int(columns), h.mRows = int(rows);
+    h.mCell = cell;
     h.mX0 = xCentre ? header["xllcenter"] : header["xllcorner"] + 0.5 * h.mCell;
     h.mZ0 = zCentre ? header["yllcenter"] : header["yllcorner"] + 0.5 * h.mCell;
+    if (!(std::abs(h.mX0) <= kMaxCoordinate && std::abs(h.mZ0) <= kMaxCoordinate))
+        fail(path, 1,
+             "the lower-left corner must be within " + formatNumber(kMaxCoordinate) +
+                 " m of the origin");
     const bool hasNoData = header.count("nodata_value");
     const double noData = hasNoData ? header["nodata_value"] : 0.0;
 
+    // Heights in file order, as many as the data holds: memory follows the file's size, not
+    // its header (ncols and nrows of 1e9 with no data behind them fail in the first row).
+    const std::size_t cells = std::size_t(h.mColumns) * std::size_t(h.mRows);
+    h.mHeight.reserve(std::min(cells, size / 2 + 1));
     in.clear();
     in.seekg(dataStart);
-    h.mHeight.assign(std::size_t(h.mColumns) * h.mRows, 0.f);
     for (int fileRow = 0; fileRow < h.mRows; ++fileRow) {
-        const int row = h.mRows - 1 - fileRow; // the file starts in the north
         for (int column = 0; column < h.mColumns; ++column) {
+            const auto at = [&] {
+                return " at row " + std::to_string(fileRow + 1) + ", column " +
+                       std::to_string(column + 1);
+            };
             double value = 0.0;
             if (!(in >> value))
                 fail(path, line + fileRow + 1,
-                     "expected " + std::to_string(h.mColumns * h.mRows) +
-                         " heights, the data "
-                         "ends in row " +
+                     "expected " + std::to_string(cells) + " heights, the data ends in row " +
                          std::to_string(fileRow + 1));
             if (hasNoData && value == noData)
+                fail(path, line + fileRow + 1, "NODATA cell" + at() + ": fill the DEM first");
+            if (!(std::abs(value) <= kMaxHeight))
                 fail(path, line + fileRow + 1,
-                     "NODATA cell at row " + std::to_string(fileRow + 1) + ", column " +
-                         std::to_string(column + 1) + ": fill the DEM first");
-            h.mHeight[std::size_t(row) * h.mColumns + column] = float(value);
+                     "height " + formatNumber(value) + at() + " is not within " +
+                         formatNumber(kMaxHeight) + " m of 0");
+            h.mHeight.push_back(float(value));
         }
+    }
+    // The file starts in the north; rows are stored from the south.
+    for (int fileRow = 0, row = h.mRows - 1; fileRow < row; ++fileRow, --row) {
+        const auto north = h.mHeight.begin() + std::ptrdiff_t(fileRow) * h.mColumns;
+        std::swap_ranges(north, north + h.mColumns,
+                         h.mHeight.begin() + std::ptrdiff_t(row) * h.mColumns);
     }
     return h;
 }
