@@ -51,7 +51,8 @@ std::string slurp(const std::string& path) {
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-/// Runs scenes/granular-slide.toml (2D granular release on the 25 m slope) for `endTime` seconds into `dir`.
+/// Runs scenes/granular-slide.toml (2D granular release on the 25 m slope) for `endTime` seconds
+/// into `dir`.
 void runGranularSlide(const TempDir& dir, double endTime) {
     const std::string path = FIRN_SOURCE_DIR "/scenes/granular-slide.toml";
     const SceneDesc scene =

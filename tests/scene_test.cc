@@ -326,10 +326,40 @@ TEST_CASE("Enumerations print as the scene spells them", "[scene]") {
     CHECK(std::string(toString(MaterialModel::Granular)) == "granular");
 }
 
-TEST_CASE("A TOML syntax error names its line and column", "[scene][errors]") {
+TEST_CASE("A TOML syntax error names its line, column and key, and shows the line",
+          "[scene][errors]") {
+    // As compilers print it: the line, then a caret under the column.
     CHECK(errorOf("[grid]\ndx = = 0.1\n") ==
-          "scenes/test.toml:2:6: error: syntax: Error while parsing value: could not "
-          "determine value type");
+          "scenes/test.toml:2:6: error: grid.dx: syntax error: Error while parsing value: could "
+          "not determine value type\n"
+          " 2 | dx = = 0.1\n"
+          "   |      ^");
+    CHECK(errorOf("[grid]\ndx = 0.1 0.2\n") ==
+          "scenes/test.toml:2:10: error: grid.dx: syntax error: Error while parsing key-value "
+          "pair: expected a comment or whitespace, saw '0'\n"
+          " 2 | dx = 0.1 0.2\n"
+          "   |          ^");
+    // An entry of an array of tables is named as validation names it: by name once known.
+    const std::string bodies = kMinimal + "\n[[body]]\nname = \"ball\"\nradius = 0..5\n";
+    CHECK(errorOf(bodies).find("error: body \"ball\": radius: syntax error: ") !=
+          std::string::npos);
+    CHECK(errorOf(kMinimal + "\n[[body]]\nradius = 0..5\n")
+              .find("error: body 2: radius: syntax error: ") != std::string::npos);
+    // A broken table header names the table; tabs stay tabs under the caret.
+    CHECK(errorOf("[grid\ndx = 0.1\n").find("scenes/test.toml:1:6: error: grid: syntax error: ") ==
+          0);
+    CHECK(errorOf("[grid]\n\tdx = = 1\n").find("\n 2 | \tdx = = 1\n   | \t     ^") !=
+          std::string::npos);
+}
+
+TEST_CASE("A scene may not ask for more frames than a run can write", "[scene][errors]") {
+    CHECK(errorOf(kMinimal, {"simulation.end_time=1e4", "simulation.frame_rate=1e5"}) ==
+          "--set: error: simulation.frame_rate: end_time x frame_rate = 1000000000 frames; at "
+          "most 1000000 (lower frame_rate or end_time)");
+    CHECK(errorOf(kMinimal, {"simulation.end_time=1e6"}) ==
+          "--set: error: simulation.end_time: end_time x frame_rate = 24000000 frames; at most "
+          "1000000 (lower frame_rate or end_time)");
+    CHECK(errorOf(kMinimal, {"simulation.end_time=1e4"}) == "no error");
 }
 
 TEST_CASE("An unknown key is an error, with a suggestion", "[scene][errors]") {
@@ -509,4 +539,21 @@ TEST_CASE("Settling is on by default, off with a gravity ramp, and not both", "[
           "are two ways to start a scene at rest; give one of them");
     CHECK(errorOf("[simulation]\nsettle_max_time = 0.0\n") ==
           "scenes/test.toml:2:19: error: simulation.settle_max_time: must be > 0, got 0");
+}
+
+TEST_CASE("A saw cut must leave part of its layer", "[scene][errors]") {
+    const std::string layer =
+        kMinimal + "\n[[body]]\nname = \"weak\"\nmaterial = \"slab\"\nshape = \"layer\"\n"
+                   "thickness = 0.1\nx_range = [0, 6]\nz_range = [0, 1]\n"
+                   "\n[[cut]]\nlayer = \"weak\"\nfrom_x = 5.4\nlength = 0.6\n";
+    CHECK(errorOf(layer) == "no error");
+    CHECK(errorOf(layer, {"cut.weak.length=6"}) ==
+          "--set: error: cut 1: length: 6 m is not shorter than layer \"weak\" (x_range [0, 6]): "
+          "the cut would leave nothing of it");
+    CHECK(errorOf(layer, {"cut.weak.from_x=6"}) ==
+          "--set: error: cut 1: from_x: the cut [6, 6.6] misses layer \"weak\" (x_range [0, 6])");
+    CHECK(errorOf(layer, {"cut.weak.from_x=-1"}) == "--set: error: cut 1: from_x: the cut [-1, "
+                                                    "-0.4] misses layer \"weak\" (x_range [0, 6])");
+    // Hanging over an end is a cut at that end, as PST scenes may write it.
+    CHECK(errorOf(layer, {"cut.weak.from_x=5.7"}) == "no error");
 }

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <firn/io.h>
+#include <firn/serial.h>
 #include <firn/solver.h>
 
 #include <cstdint>
@@ -75,6 +76,10 @@ public:
     /// a column (both transients).
     double meanSpeed() const;
 
+    /// The whole state, for checkpoints: load(save()) continues exactly where save left off.
+    void save(ByteWriter& out) const;
+    void load(ByteReader& in);
+
 private:
     double mMinX0 = std::numeric_limits<double>::quiet_NaN(), mMaxX0 = mMinX0;
     double mMinX = 0, mMaxX = 0, mTime = 0;
@@ -94,6 +99,10 @@ public:
     /// Total energy now minus at the start, J (negative: dissipated).
     double drift(const FrameDiagnostics& d) const { return d.totalEnergy() - mE0; }
 
+    /// The watch's reference state, for checkpoints (it belongs to the run's first frame).
+    void save(ByteWriter& out) const;
+    void load(ByteReader& in);
+
 private:
     double mE0, mBudget, mGravity0;
 };
@@ -101,6 +110,10 @@ private:
 /// Alpha angle, degrees: from the highest point of the release (top) to the farthest point of
 /// the deposit (far), from the horizontal. NaN when the deposit is not beyond the top along x.
 double alphaAngleDeg(double topX, double topY, double farX, double farY);
+
+/// A frame's diagnostics, for checkpoints.
+void save(ByteWriter& out, const FrameDiagnostics& d);
+void load(ByteReader& in, FrameDiagnostics& d);
 
 /// Particle attributes of outputs.md for the particle cache (p, q from the stored Kirchhoff
 /// stress as defined in the paper).

@@ -65,6 +65,10 @@ void makeDirectories(const std::string& path);
 class MetricsWriter {
 public:
     MetricsWriter(const std::string& path, std::vector<std::string> columns);
+    /// Continues the file of a resumed run: keeps its header (which must list `columns`) and
+    /// its first `keepRows` rows, drops the rows after them (frames past the checkpoint, which
+    /// the resumed run writes again) and appends from there. Throws IoError.
+    MetricsWriter(const std::string& path, std::vector<std::string> columns, std::size_t keepRows);
     ~MetricsWriter();
     MetricsWriter(const MetricsWriter&) = delete;
     MetricsWriter& operator=(const MetricsWriter&) = delete;

@@ -53,6 +53,8 @@ constexpr std::uint32_t kFlagSlabFractured = 32u;
 /// Faster than kMovedSpeed at least once since t = 0: part of the avalanche (released or
 /// entrained), what runout_x and alpha_angle_deg measure (not snow that never moved).
 constexpr std::uint32_t kFlagMoved = 64u;
+/// Left the simulated domain: removed at the end of the frame (removeOutflow).
+constexpr std::uint32_t kFlagOutside = 128u;
 constexpr float kMovedSpeed = 0.1f; ///< m/s, outputs.md's threshold for moving snow (front_x)
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).

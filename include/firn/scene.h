@@ -22,6 +22,9 @@ enum class Boundary { Friction, Slip, Sticky };
 enum class BodyShape { Box, Sphere, Layer };
 enum class ColorBy { Density, Speed, Failed, Eta };
 
+/// The most frames a scene may ask for (simulation.end_time x frame_rate).
+constexpr double kMaxFrames = 1e6;
+
 /// [simulation]
 struct SimulationDesc {
     std::string name = "scene";
@@ -39,6 +42,15 @@ struct SimulationDesc {
     bool settle = true;
     double settleMaxTime = 2.0;    ///< s of simulated settling at most
     double settleTolerance = 1e-6; ///< settled when a kinetic-energy peak < this x elastic energy
+    /// The simulated region, m: snow that leaves it (off the edge of a DEM, falling past the
+    /// terrain) is removed at the end of the frame and counted as outflow. Unbounded where a
+    /// component is infinite (the default: nothing is removed).
+    Vec3d domainMin = {-std::numeric_limits<double>::infinity(),
+                       -std::numeric_limits<double>::infinity(),
+                       -std::numeric_limits<double>::infinity()};
+    Vec3d domainMax = {std::numeric_limits<double>::infinity(),
+                       std::numeric_limits<double>::infinity(),
+                       std::numeric_limits<double>::infinity()};
 };
 
 /// [grid]
@@ -141,6 +153,10 @@ struct OutputDesc {
     bool particles = true;
     /// of density, velocity, failed, eta
     std::vector<std::string> volumes = {"density", "velocity"};
+    /// Checkpoints (firn/checkpoint.h) at the end of every this many frames (0: not by frames)
+    /// and whenever this many minutes of wall time have passed since the last (0: not by time).
+    int checkpointEveryFrames = 0;
+    double checkpointEveryMinutes = 10.0;
 };
 
 /// [render]: defaults for `firn render` (its command-line options override them).

@@ -89,6 +89,10 @@ public:
     /// Fractured share of the slab mass at the last update; NaN without slab.
     double fracturedMassFraction() const { return mFracturedFraction; }
 
+    /// The whole state, for checkpoints: load(save()) continues exactly where save left off.
+    void save(ByteWriter& out) const;
+    void load(ByteReader& in);
+
 private:
     double mPreviousTime = -std::numeric_limits<double>::infinity();
     std::vector<SlabFracture> mFractures;

@@ -10,6 +10,7 @@
 #include <firn/settle.h>
 #include <firn/transfer.h>
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -48,11 +49,15 @@ struct World {
     float maxSpeed = 0.f;     ///< largest particle speed after the last step, m/s
     float maxWaveSpeed = 0.f; ///< largest P-wave speed over the materials in use, m/s
     SettleReport settle;      ///< how the scene came to rest before t = 0
+    Vec3f domainMin = Vec3f::Constant(-std::numeric_limits<float>::infinity()); ///< m
+    Vec3f domainMax = Vec3f::Constant(std::numeric_limits<float>::infinity());  ///< m
+    double outflowMass = 0.0; ///< kg (2D: per metre) removed for leaving the domain so far
 };
 
-/// How far buildWorld goes: to t = 0 as the scene asks (settled when simulation.settle), or
-/// only seeded (firn check: the particle counts without the cost of settling).
-enum class BuildStage { Seeded, Settled };
+/// How far buildWorld goes: to t = 0 as the scene asks (settled when simulation.settle), only
+/// seeded (firn check: the particle counts without the cost of settling), or bare: materials
+/// and colliders without particles (a resumed run loads its particles from a checkpoint).
+enum class BuildStage { Bare, Seeded, Settled };
 
 /// Builds materials, colliders and seeds particles from the scene's bodies (deterministic from
 /// simulation.seed); with BuildStage::Settled and simulation.settle, settles the resting bodies
@@ -61,6 +66,11 @@ enum class BuildStage { Seeded, Settled };
 /// SceneError for what the scene asks and cannot be built.
 std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage = BuildStage::Settled,
                                   const std::function<bool()>& interrupted = {});
+
+/// The particles each body will seed, estimated from its shape on a lattice of at most ~2e5
+/// points per body (no particle is made): within a few percent of buildWorld's count for bodies
+/// many cells across, in well under a second at any dx. Throws SceneError as buildWorld does.
+std::vector<double> estimateParticlesPerBody(const SceneDesc& scene);
 
 /// dt = min(max_dt, cfl dx / (max speed + elastic wave speed)).
 double stableTimeStep(const World& world);
@@ -92,6 +102,11 @@ void updateSleep(World& world, float dt);
 /// its load has changed. Slower pushes are the residual of freezing a state that was nearly,
 /// not exactly, in equilibrium, which would otherwise wake deposits over and over.
 constexpr float kWakeAcceleration = 0.49f;
+
+/// Removes the particles outside [domainMin, domainMax] (snow that left the simulated region)
+/// and adds their mass to outflowMass; returns how many went. Run between steps (at a frame's
+/// end): it re-buckets the particles and recomputes their stress.
+std::size_t removeOutflow(World& world);
 
 /// Particles asleep after the last step.
 std::size_t asleepCount(const World& world);

@@ -1,8 +1,9 @@
 // firn: run, check scenes. Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable,
-// 3 I/O error, 4 internal error (a bug: please report), 5 `firn compare`: a figure moved beyond
-// its tolerance, 130 interrupted (SIGINT/SIGTERM).
+// 3 I/O or resource error, 4 internal error (a bug: please report), 5 `firn compare`: a figure
+// moved beyond its tolerance, 130 interrupted (SIGINT/SIGTERM).
 #include <firn/errors.h>
 #include <firn/report.h>
+#include <firn/resources.h>
 #include <firn/run.h>
 #include <firn/scene.h>
 
@@ -10,9 +11,14 @@
 #include "render_command.h"
 
 #include <algorithm>
+#include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <new>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -21,8 +27,10 @@ namespace {
 const char* kUsage = R"(firn - snow avalanche simulation with the material point method
 
 usage:
-  firn run SCENE.toml [--threads N] [--out DIR] [--set key=value ...] [--quiet]
-  firn check SCENE.toml [--set key=value ...]
+  firn run SCENE.toml [--threads N] [--out DIR] [--set key=value ...] [--max-memory SIZE]
+           [--checkpoint-every N|Mmin] [--quiet]
+  firn run --resume OUT_DIR [--threads N] [--max-memory SIZE] [--checkpoint-every ...] [--quiet]
+  firn check SCENE.toml [--set key=value ...] [--max-memory SIZE]
   firn render OUT_DIR [--color-by Q] [--frames A:B] [--size WxH] [more: firn render --help]
   firn report OUT_DIR [--times t1,t2,...] [--quiet]
   firn compare RUN_A RUN_B [--out DIR] [--force] [--tolerance name=value ...]
@@ -36,7 +44,7 @@ commands:
   report  charts of a finished run (failure maps, crack, flow) in OUT_DIR/report/report.html
   compare two runs of one scene side by side (renders, curves, values) in compare.html
 
-Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O error,
+Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O or resource error,
 4 internal error, 5 compare: a figure moved beyond its tolerance, 130 interrupted.
 See README.md for the scene reference.
 )";
@@ -55,15 +63,27 @@ options:
                      --set body.weak.thickness=0.05 (a named body)
                      --set cut.weak.length=0.4 (the [[cut]] of layer "weak")
                      (repeatable; the value is TOML: strings need quotes or are bare words)
+  --checkpoint-every N|Mmin
+                     write a checkpoint (the whole state, OUT_DIR/checkpoints/) every N frames
+                     or every M minutes of wall time (e.g. 20, 5min); 0: never. Default: the
+                     scene's output.checkpoint_every_frames / _minutes (every 10 minutes)
+  --resume OUT_DIR   continue the run in OUT_DIR from its newest valid checkpoint, with the
+                     folder's scene.toml; the finished run is bitwise the run that was not
+                     interrupted (no scene file, --out or --set with it)
+  --max-memory SIZE  the memory the run may use (e.g. 8G, 512M); default: what the machine
+                     has free (its available memory, a cgroup limit, ulimit -v). A scene
+                     estimated to need more is refused before anything is written (exit 3)
   --quiet            no progress line on stderr
   -h, --help         this text
 )";
 
-const char* kCheckHelp = R"(usage: firn check SCENE.toml [--set key=value ...]
+const char* kCheckHelp = R"(usage: firn check SCENE.toml [--set key=value ...] [--max-memory SIZE]
 
 Parses and validates the scene without running it and prints each material's parameters with
 where each came from (scene file line, --set, the snow parameter table, or a default), the
-particles per body, the grid spacing, the time step and the estimated number of steps.
+particles per body, the grid spacing, the time step and the estimated number of steps, and
+the memory the run will need against what is available (--max-memory as for firn run). A
+scene too large to seed in about a second gets estimated counts only.
 Exit code 1 on any scene error.
 )";
 
@@ -92,6 +112,7 @@ struct Command {
     firn::RunOptions run;
     firn::ReportOptions report;
     std::vector<std::string> overrides;
+    std::string resumeDir; ///< firn run --resume OUT_DIR
     bool help = false;
 };
 
@@ -131,6 +152,36 @@ int parseThreads(const std::string& text) {
     throw UsageError{"--threads must be a positive integer, got '" + text + "'"};
 }
 
+/// "20" (frames), "5min" or "5m" (minutes of wall time), "0" (never).
+void parseCheckpointEvery(const std::string& text, firn::RunOptions& run) {
+    try {
+        std::size_t used = 0;
+        const double n = std::stod(text, &used);
+        const std::string unit = text.substr(used);
+        if (n >= 0 && std::isfinite(n) && (unit == "min" || unit == "m")) {
+            run.checkpointEveryMinutes = n;
+            run.checkpointEveryFrames = 0;
+            return;
+        }
+        if (unit.empty() && n >= 0 && n == std::floor(n) && n < 1e9) {
+            run.checkpointEveryFrames = int(n);
+            run.checkpointEveryMinutes = 0;
+            return;
+        }
+    } catch (const std::exception&) {
+    }
+    throw UsageError{"--checkpoint-every takes frames (e.g. 20) or minutes (e.g. 5min), got '" +
+                     text + "'"};
+}
+
+double parseMaxMemory(const std::string& text) {
+    try {
+        return firn::parseByteSize(text);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError{std::string("--max-memory: ") + e.what()};
+    }
+}
+
 Command parseCommand(int argc, char** argv) {
     Command c;
     c.name = argv[1];
@@ -146,6 +197,12 @@ Command parseCommand(int argc, char** argv) {
             c.run.outDir = needValue(i, argc, argv);
         else if (a == "--quiet" && c.name == "run")
             c.run.quiet = true;
+        else if (a == "--checkpoint-every" && c.name == "run")
+            parseCheckpointEvery(needValue(i, argc, argv), c.run);
+        else if (a == "--resume" && c.name == "run")
+            c.resumeDir = needValue(i, argc, argv);
+        else if (a == "--max-memory" && (c.name == "run" || c.name == "check"))
+            c.run.maxMemoryBytes = parseMaxMemory(needValue(i, argc, argv));
         else if (a == "--times" && c.name == "report")
             c.report.times = parseTimes(needValue(i, argc, argv));
         else if (a == "--quiet" && c.name == "report")
@@ -159,6 +216,12 @@ Command parseCommand(int argc, char** argv) {
         else
             throw UsageError{"one scene file only, got '" + c.scene + "' and '" + a + "'"};
     }
+    if (!c.resumeDir.empty()) {
+        if (!c.scene.empty() || !c.overrides.empty() || !c.run.outDir.empty())
+            throw UsageError{"--resume continues a run as it was: no scene file, --set or --out "
+                             "with it"};
+        return c;
+    }
     if (!c.help && c.scene.empty()) {
         throw UsageError{"firn " + c.name +
                          (c.name == "report" ? " needs an output folder" : " needs a scene file")};
@@ -169,6 +232,8 @@ Command parseCommand(int argc, char** argv) {
     return c;
 }
 
+int finishRun(const firn::RunResult& r, bool quiet);
+
 int runCommand(const Command& c) {
     if (c.name == "report") {
         firn::ReportOptions options = c.report;
@@ -176,12 +241,31 @@ int runCommand(const Command& c) {
         std::printf("%s\n", firn::writeReport(options).c_str());
         return 0;
     }
+    if (!c.resumeDir.empty()) {
+        firn::RunOptions options = c.run;
+        options.outDir = c.resumeDir;
+        options.resume = true;
+        const std::string sceneToml = c.resumeDir + "/scene.toml";
+        std::ifstream in(sceneToml, std::ios::binary);
+        if (!in)
+            throw firn::IoError("cannot resume: " + sceneToml +
+                                " not found (is this a folder written by firn run?)");
+        std::ostringstream text;
+        text << in.rdbuf();
+        options.resumeSceneToml = text.str();
+        return finishRun(
+            firn::runScene(firn::parseScene(options.resumeSceneToml, sceneToml, {}), options),
+            c.run.quiet);
+    }
     const firn::SceneDesc scene = firn::loadScene(c.scene, c.overrides);
     if (c.name == "check") {
-        std::fputs(firn::describeScene(scene).c_str(), stdout);
+        std::fputs(firn::describeScene(scene, c.run.maxMemoryBytes).c_str(), stdout);
         return 0;
     }
-    const firn::RunResult r = firn::runScene(scene, c.run);
+    return finishRun(firn::runScene(scene, c.run), c.run.quiet);
+}
+
+int finishRun(const firn::RunResult& r, bool quiet) {
     if (r.status == "unstable") {
         std::fprintf(stderr, "firn: %s\n", r.message.c_str());
         return 2;
@@ -191,7 +275,7 @@ int runCommand(const Command& c) {
                      r.outDir.c_str());
         return 130;
     }
-    if (!c.run.quiet)
+    if (!quiet)
         std::fprintf(stderr, "firn: %d frames, %lld steps, %zu particles in %.1f s -> %s\n",
                      r.frames, r.steps, r.particles, r.wallSeconds, r.outDir.c_str());
     return 0;
@@ -208,6 +292,9 @@ int main(int argc, char** argv) {
         std::printf("firn %s\n", FIRN_VERSION);
         return 0;
     }
+    // Past a file-size limit (ulimit -f) a write fails with EFBIG and Firn reports it (exit
+    // 3); the default action of SIGXFSZ would kill the process mid-file instead.
+    std::signal(SIGXFSZ, SIG_IGN);
     try {
         const std::string name = argv[1];
         if (name == "render") {
@@ -258,6 +345,14 @@ int main(int argc, char** argv) {
         return 1;
     } catch (const firn::IoError& e) {
         std::fprintf(stderr, "firn: I/O error: %s\n", e.what());
+        return 3;
+    } catch (const firn::ResourceError& e) {
+        std::fprintf(stderr, "firn: not enough memory: %s\n", e.what());
+        return 3;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "firn: out of memory: an allocation failed although the estimate "
+                             "fitted (another process took memory?); try a larger grid.dx or a "
+                             "lower --max-memory\n");
         return 3;
     } catch (const firn::SimulationError& e) {
         std::fprintf(stderr, "firn: simulation failed: %s\n", e.what());

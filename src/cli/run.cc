@@ -1,5 +1,7 @@
+#include <firn/checkpoint.h>
 #include <firn/diagnostics.h>
 #include <firn/io.h>
+#include <firn/resources.h>
 #include <firn/run.h>
 #include <firn/slab_fracture.h>
 #include <firn/solver.h>
@@ -68,10 +70,12 @@ public:
         : mQuiet(quiet)
         , mTty(isatty(fileno(stderr)))
         , mFrames(frames) {}
-    void frame(int k, double time, std::size_t particles, long long steps, double wall) {
+    /// Frame k written, `done` frames and `steps` steps of them by this process (a resumed run
+    /// started later) in `wall` seconds.
+    void frame(int k, int done, double time, std::size_t particles, long long steps, double wall) {
         if (mQuiet) return;
         const double stepsPerSecond = wall > 0 ? steps / wall : 0.0;
-        const double eta = k > 0 ? wall * (mFrames - k) / k : 0.0;
+        const double eta = done > 0 ? wall * (mFrames - k) / done : 0.0;
         std::fprintf(stderr, "%sframe %d/%d  t=%.4g s  %zu particles  %.1f steps/s  ETA %.0f s%s",
                      mTty ? "\r\033[K" : "", k, mFrames, time, particles, stepsPerSecond, eta,
                      mTty ? "" : "\n");
@@ -117,7 +121,8 @@ const std::vector<std::string> kMetricColumns = {"frame",
                                                  "slab_fractured_fraction",
                                                  "slab_blocks",
                                                  "largest_block_mass",
-                                                 "median_block_mass"};
+                                                 "median_block_mass",
+                                                 "outflow_mass"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
@@ -125,6 +130,12 @@ struct RunState {
         , world(w)
         , framesDir(outDir + "/frames")
         , metrics(outDir + "/metrics.csv", kMetricColumns) {}
+    /// A resumed run: metrics.csv keeps the rows of frames 0..frame.
+    RunState(const SceneDesc& sc, World& w, const std::string& outDir, int frame)
+        : scene(sc)
+        , world(w)
+        , framesDir(outDir + "/frames")
+        , metrics(outDir + "/metrics.csv", kMetricColumns, std::size_t(frame) + 1) {}
     const SceneDesc& scene;
     World& world;
     std::string framesDir;
@@ -138,6 +149,10 @@ struct RunState {
     double releaseTopX = std::nan(""), releaseTopY = std::nan("");
     FrameDiagnostics first, last;
     Clock::time_point start = Clock::now();
+    long long stepsAtStart = 0;   ///< a resumed run's step count at its checkpoint
+    int checkpointsWritten = 0;   ///< by this process
+    double checkpointSeconds = 0; ///< wall time spent writing them
+    int framesAtStart = 0;        ///< and the frames written before it
 };
 
 std::string cell(double v) {
@@ -192,8 +207,50 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          cell(s.slab.fracturedMassFraction()),
                          std::to_string(blocks.count),
                          cell(blocks.largestMass),
-                         cell(blocks.medianMass)});
+                         cell(blocks.medianMass),
+                         cell(w.outflowMass)});
 }
+
+/// The run loop's state beside the world's, for checkpoints (what writeFrame and the summary
+/// carry from frame to frame).
+std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
+    ByteWriter out;
+    s.crack.save(out);
+    s.slab.save(out);
+    watch.save(out);
+    for (double v : {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY}) out.value(v);
+    save(out, s.first);
+    save(out, s.last);
+    return out.bytes();
+}
+
+void loadRunState(const std::string& bytes, RunState& s, StabilityWatch& watch) {
+    ByteReader in(bytes.data(), bytes.size());
+    s.crack.load(in);
+    s.slab.load(in);
+    watch.load(in);
+    for (double* v : {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY}) in.value(*v);
+    load(in, s.first);
+    load(in, s.last);
+}
+
+/// When checkpoints are written: every N frames, every M minutes of wall time, or both.
+class CheckpointClock {
+public:
+    CheckpointClock(int everyFrames, double everyMinutes)
+        : mFrames(everyFrames)
+        , mSeconds(everyMinutes * 60.0) {}
+    bool due(int frame) const {
+        return (mFrames > 0 && frame % mFrames == 0) ||
+               (mSeconds > 0 && secondsSince(mLast) >= mSeconds);
+    }
+    void written() { mLast = Clock::now(); }
+
+private:
+    int mFrames;
+    double mSeconds;
+    Clock::time_point mLast = Clock::now();
+};
 
 /// Slab fractures (Gaume et al. 2019, sec. 3, Fig. 3) and the slab's blocks at the end.
 void writeSlabSummary(const SlabFractureTracker& slab, JsonObject& j) {
@@ -231,11 +288,12 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("wall_seconds", wall);
     j.set("threads", threads);
     j.set("particle_steps_per_second",
-          wall > 0 ? double(w.particles.size()) * w.steps / wall : 0.0);
+          wall > 0 ? double(w.particles.size()) * double(w.steps - s.stepsAtStart) / wall : 0.0);
     j.set("peak_rss_bytes", static_cast<long long>(rss));
     j.set("bytes_per_particle", w.particles.size() ? double(rss) / w.particles.size() : 0.0);
     j.set("mass_initial", s.first.mass);
     j.set("mass_final", s.last.mass);
+    j.set("mass_outflow", w.outflowMass); // mass_initial = mass_final + mass_outflow
     j.set("max_speed", s.maxSpeed);
     j.set("max_crack_speed", s.crack.maxSpeed());
     j.set("mean_crack_speed", s.crack.meanSpeed());
@@ -257,6 +315,9 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     }
     j.set("status", r.status);
     if (!r.message.empty()) j.set("message", r.message);
+    j.set("checkpoints_written", s.checkpointsWritten);
+    j.set("checkpoint_wall_seconds", s.checkpointSeconds);
+    if (r.resumedFromFrame >= 0) j.set("resumed_from_frame", r.resumedFromFrame);
     writeFileAtomic(r.outDir + "/summary.json", j.str());
 }
 
@@ -272,83 +333,148 @@ void removeOldFrames(const std::string& dir) {
     }
 }
 
+/// Settling went unstable (a time step too large for the scene): no frame to keep, but the
+/// summary says what happened, as for an unstable run.
+void writeUnstableSettleSummary(const SceneDesc& scene, RunResult& result, const char* why) {
+    result.status = "unstable";
+    result.message = std::string("unstable while settling before t = 0: ") + why;
+    MetricsWriter(result.outDir + "/metrics.csv", kMetricColumns); // the header, no rows
+    JsonObject j;
+    j.set("scene", scene.path);
+    j.set("dimension", scene.simulation.dimension);
+    j.set("steps", 0);
+    j.set("frames", 0);
+    j.set("end_time", 0.0);
+    j.set("wall_seconds", 0.0);
+    j.setBool("settle", true);
+    j.setBool("settle_converged", false);
+    j.set("status", result.status);
+    j.set("message", result.message);
+    writeFileAtomic(result.outDir + "/summary.json", j.str());
+}
+
 } // namespace
 
-RunResult runScene(const SceneDesc& scene, const RunOptions& options) {
+RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
     const int threads = options.threads > 0 ? options.threads : tbb::info::default_concurrency();
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    checkMemory(sceneIn, estimateMemory(sceneIn, options.maxMemoryBytes));
     RunResult result;
-    result.outDir = options.outDir.empty() ? scene.output.directory : options.outDir;
+    result.outDir = options.outDir.empty() ? sceneIn.output.directory : options.outDir;
+    const std::string checkpointDir = result.outDir + "/checkpoints";
     SignalGuard signals; // before setup, so that a signal at any time ends with a summary
-    makeDirectories(result.outDir + "/frames");
-    removeOldFrames(result.outDir + "/frames");
-    writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
 
     std::unique_ptr<World> world;
-    try {
-        world = buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
-    } catch (const SimulationError& e) {
-        // Settling went unstable (a time step too large for the scene): no frame to keep, but
-        // the summary says what happened, as for an unstable run.
-        result.status = "unstable";
-        result.message = std::string("unstable while settling before t = 0: ") + e.what();
-        MetricsWriter(result.outDir + "/metrics.csv", kMetricColumns); // the header, no rows
-        JsonObject j;
-        j.set("scene", scene.path);
-        j.set("dimension", scene.simulation.dimension);
-        j.set("steps", 0);
-        j.set("frames", 0);
-        j.set("end_time", 0.0);
-        j.set("wall_seconds", 0.0);
-        j.setBool("settle", true);
-        j.setBool("settle_converged", false);
-        j.set("status", result.status);
-        j.set("message", result.message);
-        writeFileAtomic(result.outDir + "/summary.json", j.str());
-        return result;
+    SceneDesc scene = sceneIn;
+    LoadedCheckpoint resumed;
+    if (options.resume) {
+        world = buildWorld(scene, BuildStage::Bare);
+        resumed = loadNewestCheckpoint(checkpointDir, options.resumeSceneToml, *world);
+        for (const std::string& w : resumed.warnings)
+            std::fprintf(stderr, "firn: warning: %s\n", w.c_str());
+        scene.path = resumed.scenePath; // the summary names the scene as the first run did
+        result.resumedFromFrame = resumed.frame;
+        if (!options.quiet)
+            std::fprintf(stderr, "resuming from frame %d (t = %.6g s) of %s\n", resumed.frame,
+                         world->time, resumed.file.c_str());
+    } else {
+        makeDirectories(result.outDir + "/frames");
+        removeOldFrames(result.outDir + "/frames");
+        removeCheckpoints(checkpointDir);
+        writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
+        try {
+            world = buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
+        } catch (const SimulationError& e) {
+            writeUnstableSettleSummary(scene, result, e.what());
+            return result;
+        }
+        if (world->settle.ran && !options.quiet)
+            std::fprintf(
+                stderr, "settled under gravity in %.3g s (%lld steps, %.1f s wall)%s%s\n",
+                world->settle.time, world->settle.steps, world->settle.wallSeconds,
+                world->settle.message.empty() ? "" : ": warning: ", world->settle.message.c_str());
     }
-    if (world->settle.ran && !options.quiet)
-        std::fprintf(
-            stderr, "settled under gravity in %.3g s (%lld steps, %.1f s wall)%s%s\n",
-            world->settle.time, world->settle.steps, world->settle.wallSeconds,
-            world->settle.message.empty() ? "" : ": warning: ", world->settle.message.c_str());
     exportTerrain(scene, world->colliders, result.outDir); // terrain.obj, terrain.vdb
-    RunState s(scene, *world, result.outDir);
+    std::unique_ptr<RunState> state =
+        options.resume ? std::make_unique<RunState>(scene, *world, result.outDir, resumed.frame)
+                       : std::make_unique<RunState>(scene, *world, result.outDir);
+    RunState& s = *state;
     const int frames =
         std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
     Progress progress(options.quiet, frames);
+    CheckpointClock checkpoints(
+        options.checkpointEveryFrames >= 0 ? options.checkpointEveryFrames
+                                           : scene.output.checkpointEveryFrames,
+        options.checkpointEveryMinutes >= 0 ? options.checkpointEveryMinutes
+                                            : scene.output.checkpointEveryMinutes);
 
-    s.first = s.last = computeDiagnostics(*world);
-    writeFrame(s, 0, s.first, nullptr);
-    const StabilityWatch watch(s.first, *world);
-    result.frames = 1;
-    for (int k = 1; k <= frames && result.status == "ok"; ++k) {
-        const double frameEnd = k / scene.simulation.frameRate;
-        while (world->time < frameEnd - 1e-12 && !gStopSignal) {
-            // The last step of a frame is shortened to land on the frame time exactly.
-            s.lastDt = std::min(stableTimeStep(*world), frameEnd - world->time);
-            step(*world, s.lastDt);
-            if (!std::isfinite(world->maxSpeed)) break;
+    if (!options.resume) s.first = s.last = computeDiagnostics(*world);
+    StabilityWatch watch(s.first, *world);
+    int firstFrame = 1;
+    // A full disk or a file-size limit mid-run: the frames written so far are complete (each
+    // goes to its name only when whole); the summary says what happened, then main exits 3.
+    try {
+        if (options.resume) {
+            loadRunState(resumed.runState, s, watch);
+            firstFrame = resumed.frame + 1;
+            s.stepsAtStart = world->steps;
+            s.framesAtStart = resumed.frame;
+            result.frames = resumed.frame + 1;
+        } else {
+            writeFrame(s, 0, s.first, nullptr);
+            result.frames = 1;
         }
-        if (gStopSignal) {
-            result.status = "interrupted";
-            result.message = std::string("stopped by signal ") + std::to_string(gStopSignal) +
-                             " at t = " + std::to_string(world->time) + " s";
-            break;
+        for (int k = firstFrame; k <= frames && result.status == "ok"; ++k) {
+            const double frameEnd = k / scene.simulation.frameRate;
+            while (world->time < frameEnd - 1e-12 && !gStopSignal) {
+                // The last step of a frame is shortened to land on the frame time exactly.
+                s.lastDt = std::min(stableTimeStep(*world), frameEnd - world->time);
+                step(*world, s.lastDt);
+                if (!std::isfinite(world->maxSpeed)) break;
+            }
+            removeOutflow(*world); // snow that left the domain (simulation.domain_min/max)
+            if (gStopSignal) {
+                result.status = "interrupted";
+                result.message = std::string("stopped by signal ") + std::to_string(gStopSignal) +
+                                 " at t = " + std::to_string(world->time) + " s";
+                break;
+            }
+            const FrameDiagnostics d = computeDiagnostics(*world);
+            const std::string why = watch.check(d, *world);
+            if (!why.empty()) {
+                result.status = "unstable";
+                result.message = "unstable: " + why + "; last good frame is " +
+                                 std::to_string(result.frames - 1);
+                break;
+            }
+            s.last = d;
+            writeFrame(s, k, d, &watch);
+            ++result.frames;
+            if (k < frames && checkpoints.due(k)) {
+                const Clock::time_point t0 = Clock::now();
+                writeCheckpoint(checkpointDir, k,
+                                options.resume ? options.resumeSceneToml : scene.resolvedToml,
+                                scene.path, *world, saveRunState(s, watch));
+                checkpoints.written();
+                ++s.checkpointsWritten;
+                s.checkpointSeconds += secondsSince(t0);
+            }
+            progress.frame(k, k - s.framesAtStart, world->time, world->particles.size(),
+                           world->steps - s.stepsAtStart, secondsSince(s.start));
         }
-        const FrameDiagnostics d = computeDiagnostics(*world);
-        const std::string why = watch.check(d, *world);
-        if (!why.empty()) {
-            result.status = "unstable";
-            result.message =
-                "unstable: " + why + "; last good frame is " + std::to_string(result.frames - 1);
-            break;
+    } catch (const IoError& e) {
+        progress.done();
+        result.status = "io_error";
+        result.message =
+            std::string(e.what()) + "; last complete frame is " + std::to_string(result.frames - 1);
+        result.steps = world->steps;
+        result.particles = world->particles.size();
+        try {
+            writeSummary(s, result, threads);
+        } catch (const IoError&) {
+            // No room for the summary either: the message below is all there is.
         }
-        s.last = d;
-        writeFrame(s, k, d, &watch);
-        ++result.frames;
-        progress.frame(k, world->time, world->particles.size(), world->steps,
-                       secondsSince(s.start));
+        throw IoError(result.message);
     }
     progress.done();
     result.steps = world->steps;
@@ -371,14 +497,41 @@ std::string describeMaterial(const MaterialDesc& material) {
     return out.str();
 }
 
-std::string describeScene(const SceneDesc& scene) {
-    std::unique_ptr<World> world = buildWorld(scene, BuildStage::Seeded);
+std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
+    const MemoryEstimate memory = estimateMemory(scene, maxMemoryBytes);
     std::ostringstream out;
     out << "scene " << scene.path << ": \"" << scene.simulation.name << "\", "
         << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
         << scene.grid.particlesPerCell << " particles per cell, transfer "
         << toString(scene.grid.transfer) << "\n";
     for (const MaterialDesc& material : scene.materials) out << describeMaterial(material);
+    out << "  memory: about " << formatBytes(memory.bytes) << " for about "
+        << std::llround(memory.particles) << " particles; "
+        << (std::isinf(memory.availableBytes)
+                ? std::string("no limit found")
+                : formatBytes(memory.availableBytes) + " available (" + memory.limitedBy + ")")
+        << "\n";
+    // Seeding counts exactly, at ~1 s per few million particles: beyond that (or beyond the
+    // memory) the estimate is what check reports.
+    constexpr double kMaxSeededInCheck = 3e6;
+    if (memory.particles > kMaxSeededInCheck || memory.bytes > memory.availableBytes) {
+        for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+            const BodyDesc& body = scene.bodies[b];
+            out << "  body " << b + 1 << (body.name.empty() ? "" : " \"" + body.name + "\"") << " ("
+                << body.material << "): about " << std::llround(memory.particlesPerBody[b])
+                << " particles (estimated)\n";
+        }
+        if (memory.bytes > memory.availableBytes) {
+            try {
+                checkMemory(scene, memory);
+            } catch (const ResourceError& e) {
+                out << "  warning: `firn run` would refuse this scene: " << e.what() << "\n";
+            }
+        }
+        out << "  output: " << scene.output.directory << "\n";
+        return out.str();
+    }
+    std::unique_ptr<World> world = buildWorld(scene, BuildStage::Seeded);
     for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
         const BodyDesc& body = scene.bodies[b];
         out << "  body " << b + 1 << (body.name.empty() ? "" : " \"" + body.name + "\"") << " ("

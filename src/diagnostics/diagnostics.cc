@@ -155,4 +155,29 @@ ParticleFrame exportParticles(const World& world) {
     return f;
 }
 
+void save(ByteWriter& out, const FrameDiagnostics& d) {
+    out.value(std::uint64_t(d.particles));
+    for (double v : {d.mass, d.kineticEnergy, d.elasticEnergy, d.gravitationalEnergy, d.maxSpeed,
+                     d.topX, d.topY, d.frontX, d.movedTopX, d.movedTopY, d.movedFarX, d.movedFarY,
+                     d.crackMinX, d.crackMaxX, d.failedFraction})
+        out.value(v);
+    for (const Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition})
+        for (int a = 0; a < 3; ++a) out.value((*v)[a]);
+    out.value(std::uint8_t(d.hasWeakLayer)), out.value(std::uint8_t(d.finite));
+    out.array(d.crackCells);
+}
+
+void load(ByteReader& in, FrameDiagnostics& d) {
+    d.particles = std::size_t(in.value<std::uint64_t>());
+    for (double* v : {&d.mass, &d.kineticEnergy, &d.elasticEnergy, &d.gravitationalEnergy,
+                      &d.maxSpeed, &d.topX, &d.topY, &d.frontX, &d.movedTopX, &d.movedTopY,
+                      &d.movedFarX, &d.movedFarY, &d.crackMinX, &d.crackMaxX, &d.failedFraction})
+        in.value(*v);
+    for (Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition})
+        for (int a = 0; a < 3; ++a) in.value((*v)[a]);
+    d.hasWeakLayer = in.value<std::uint8_t>() != 0;
+    d.finite = in.value<std::uint8_t>() != 0;
+    in.array(d.crackCells);
+}
+
 } // namespace firn

@@ -257,4 +257,20 @@ void SlabFractureTracker::update(const std::vector<SlabSample>& samples, double 
     mFracturedFraction = mass > 0.0 ? fracturedMass / mass : std::nan("");
 }
 
+void SlabFractureTracker::save(ByteWriter& out) const {
+    out.value(mPreviousTime);
+    out.array(mFractures);
+    out.value(mBlocks);
+    out.value(std::uint64_t(mMaxBlocks));
+    out.value(mFracturedFraction);
+}
+
+void SlabFractureTracker::load(ByteReader& in) {
+    in.value(mPreviousTime);
+    in.array(mFractures);
+    in.value(mBlocks);
+    mMaxBlocks = std::size_t(in.value<std::uint64_t>());
+    in.value(mFracturedFraction);
+}
+
 } // namespace firn

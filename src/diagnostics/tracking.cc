@@ -94,4 +94,25 @@ double alphaAngleDeg(double topX, double topY, double farX, double farY) {
     return std::atan2(topY - farY, run) * 180.0 / M_PI;
 }
 
+void CrackTracker::save(ByteWriter& out) const {
+    for (double v : {mMinX0, mMaxX0, mMinX, mMaxX, mTime, mTip, mSpeed, mMaxSpeed}) out.value(v);
+    out.value(mDirection);
+    out.array(mHistory);
+}
+
+void CrackTracker::load(ByteReader& in) {
+    for (double* v : {&mMinX0, &mMaxX0, &mMinX, &mMaxX, &mTime, &mTip, &mSpeed, &mMaxSpeed})
+        in.value(*v);
+    in.value(mDirection);
+    in.array(mHistory);
+}
+
+void StabilityWatch::save(ByteWriter& out) const {
+    for (double v : {mE0, mBudget, mGravity0}) out.value(v);
+}
+
+void StabilityWatch::load(ByteReader& in) {
+    for (double* v : {&mE0, &mBudget, &mGravity0}) in.value(*v);
+}
+
 } // namespace firn

@@ -3,6 +3,8 @@
 #include <firn/io.h>
 #include <firn/terrain_export.h>
 
+#include "vdb_file.h"
+
 #include <openvdb/io/Archive.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/SignedFloodFill.h>
@@ -128,16 +130,6 @@ openvdb::FloatGrid::Ptr sampleLevelSet(const std::vector<Collider>& colliders,
     return grid;
 }
 
-/// An archive written into memory, so that writeFileAtomic can put it on disk whole.
-class MemoryArchive : public openvdb::io::Archive {
-public:
-    std::string bytes(const openvdb::GridCPtrVec& grids) const {
-        std::ostringstream os(std::ios::out | std::ios::binary);
-        Archive::write(os, grids, /*seekable=*/true);
-        return os.str();
-    }
-};
-
 } // namespace
 
 TerrainExtent terrainExtent(const SceneDesc& scene) {
@@ -231,19 +223,7 @@ void writeTerrainLevelSet(const std::string& path, const std::vector<Collider>& 
     grid->insertMeta("time", openvdb::DoubleMetadata(0.0));
     grid->insertMeta("frame", openvdb::Int32Metadata(0));
     grid->insertMeta("frame_rate", openvdb::DoubleMetadata(frameRate));
-    MemoryArchive archive;
-    // Blosc as the caches (outputs.md), zlib where this OpenVDB was built without it.
-    archive.setCompression((openvdb::io::Archive::hasBloscCompression()
-                                ? openvdb::io::COMPRESS_BLOSC
-                                : openvdb::io::COMPRESS_ZIP) |
-                           openvdb::io::COMPRESS_ACTIVE_MASK);
-    std::string bytes;
-    try {
-        bytes = archive.bytes({grid});
-    } catch (const openvdb::Exception& error) {
-        throw IoError("cannot write " + path + ": " + error.what());
-    }
-    writeFileAtomic(path, bytes);
+    writeVdbFileAtomic(path, {grid});
 }
 
 void exportTerrain(const SceneDesc& scene, const std::vector<Collider>& colliders,

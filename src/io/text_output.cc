@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <stdexcept>
 #include <string_view>
 #include <system_error>
@@ -157,6 +158,28 @@ MetricsWriter::MetricsWriter(const std::string& path, std::vector<std::string> c
     }
 }
 
+MetricsWriter::MetricsWriter(const std::string& path, std::vector<std::string> columns,
+                             std::size_t keepRows)
+    : mPath(path)
+    , mColumns(std::move(columns)) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw IoError("cannot read " + path + " to continue it");
+    std::string line, kept;
+    std::size_t rows = 0;
+    if (!std::getline(in, line) || line + "\n" != csvLine(mColumns))
+        throw IoError(path + " does not have this Firn's columns; cannot continue it");
+    kept = line + "\n";
+    while (rows < keepRows && std::getline(in, line)) kept += line + "\n", ++rows;
+    if (rows < keepRows)
+        throw IoError(path + " has " + std::to_string(rows) + " rows, the checkpoint needs " +
+                      std::to_string(keepRows));
+    in.close();
+    writeFileAtomic(path, kept);
+    std::FILE* file = std::fopen(path.c_str(), "a");
+    if (!file) throw writeError(path, errno);
+    mFile = file;
+}
+
 MetricsWriter::~MetricsWriter() {
     if (mFile) std::fclose(static_cast<std::FILE*>(mFile)); // rows are flushed already
 }
@@ -168,9 +191,15 @@ void MetricsWriter::appendRow(const std::vector<std::string>& cells) {
     }
     auto* file = static_cast<std::FILE*>(mFile);
     // Flushed row by row: a run stopped by a signal or a crash keeps every finished frame.
+    const long before = std::ftell(file);
     errno = 0;
     if (std::fputs(csvLine(cells).c_str(), file) < 0 || std::fflush(file) != 0) {
-        throw writeError(mPath, errno);
+        const int errnum = errno;
+        // A full disk may have taken part of the row: cut it off, so that every row on disk
+        // is whole (a resumed run continues the file).
+        std::clearerr(file);
+        if (before >= 0 && ::ftruncate(fileno(file), before) == 0) std::fseek(file, before, SEEK_SET);
+        throw writeError(mPath, errnum);
     }
 }
 

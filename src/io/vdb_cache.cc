@@ -3,14 +3,13 @@
 // time they are included.
 #include <firn/io.h>
 
+#include "vdb_file.h"
+
 #include <openvdb/io/Archive.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/points/PointConversion.h>
 #include <openvdb/points/PointDataGrid.h>
 #include <openvdb/tools/PointIndexGrid.h>
-
-#include <fcntl.h>
-#include <unistd.h>
 
 #include <array>
 #include <cerrno>
@@ -18,6 +17,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 #include <utility>
 
@@ -62,10 +62,6 @@ private:
 
 IoError ioError(const std::string& path, const std::string& reason) {
     return IoError("cannot write " + path + ": " + reason);
-}
-
-IoError ioError(const std::string& path, int errnum) {
-    return ioError(path, errnum != 0 ? std::strerror(errnum) : "write failed");
 }
 
 void checkVoxelSize(double voxelSize) {
@@ -260,55 +256,71 @@ uint32_t compressionFlags() {
     return codec | openvdb::io::COMPRESS_ACTIVE_MASK;
 }
 
-/// Writes what io::File::write writes. io::File opens its own std::ofstream and never looks at
-/// it after writing, so a full disk would leave a truncated file that seems fine; writing into
-/// our own stream, with exceptions on, catches the first failed write while errno is fresh.
-class CheckedArchive : public openvdb::io::Archive {
+/// 64-bit FNV-1a of `bytes` from `begin`, started from `basis`.
+std::uint64_t fnv1a(const std::string& bytes, std::size_t begin, std::uint64_t basis) {
+    std::uint64_t h = basis;
+    for (std::size_t i = begin; i < bytes.size(); ++i) {
+        h ^= static_cast<unsigned char>(bytes[i]);
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
+/// An OpenVDB file's header holds a random UUID (36 characters after the magic number, the
+/// file and library versions and the grid-offsets flag): two writes of the same grids differ
+/// there and only there. Replacing it with one made from a hash of the rest keeps it unique per
+/// content (what readers use it for) and makes the same frame the same bytes, as determinism
+/// and resumed runs promise (outputs.md).
+void setContentUuid(std::string& file) {
+    constexpr std::size_t kUuidOffset = 8 + 4 + 4 + 4 + 1, kUuidLength = 36;
+    if (file.size() < kUuidOffset + kUuidLength || file[kUuidOffset + 8] != '-')
+        throw std::logic_error("unexpected OpenVDB header layout");
+    const std::size_t rest = kUuidOffset + kUuidLength;
+    const std::uint64_t hi = fnv1a(file, rest, 0xcbf29ce484222325ull);
+    std::uint64_t lo = fnv1a(file, rest, 0x84222325cbf29ce4ull);
+    // RFC 9562 version 8 (vendor-specific) with the RFC variant bits.
+    const std::uint64_t hiV8 = (hi & ~0xf000ull) | 0x8000ull;
+    lo = (lo & 0x3fffffffffffffffull) | 0x8000000000000000ull;
+    char text[kUuidLength + 1];
+    std::snprintf(text, sizeof text, "%08llx-%04llx-%04llx-%04llx-%012llx",
+                  (unsigned long long)(hiV8 >> 32), (unsigned long long)((hiV8 >> 16) & 0xffff),
+                  (unsigned long long)(hiV8 & 0xffff), (unsigned long long)(lo >> 48),
+                  (unsigned long long)(lo & 0xffffffffffffull));
+    file.replace(kUuidOffset, kUuidLength, text, kUuidLength);
+}
+
+/// An archive that writes into a stream of ours (Archive::write is protected).
+class MemoryArchive : public openvdb::io::Archive {
 public:
-    void writeFile(const std::string& path, const std::string& reportedPath,
-                   const openvdb::GridCPtrVec& grids) const {
-        std::ofstream os;
-        os.exceptions(std::ios::failbit | std::ios::badbit);
-        errno = 0;
-        try {
-            os.open(path, std::ios::out | std::ios::binary | std::ios::trunc);
-            Archive::write(os, grids, /*seekable=*/true);
-            os.close();
-        } catch (const std::ios_base::failure&) {
-            throw ioError(reportedPath, errno);
-        } catch (const openvdb::Exception& e) {
-            throw ioError(reportedPath, e.what());
-        }
+    void writeTo(std::ostream& os, const openvdb::GridCPtrVec& grids) const {
+        Archive::write(os, grids, /*seekable=*/true);
     }
 };
 
-/// Flushes the file to the disk before the rename, so that a power cut cannot leave a complete
-/// name on an empty file.
-void syncFile(const std::string& path, const std::string& reportedPath) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0 || ::fsync(fd) != 0) {
-        const int errnum = errno;
-        if (fd >= 0) ::close(fd);
-        throw ioError(reportedPath, errnum);
+} // namespace
+
+// The archive goes to memory first: io::File opens its own stream and never checks it, so a
+// full disk would leave a truncated file that seems fine; writeFileAtomic checks every write.
+void writeVdbFileAtomic(const std::string& path, const openvdb::GridCPtrVec& grids) {
+    std::ostringstream os(std::ios::out | std::ios::binary);
+    try {
+        MemoryArchive archive;
+        archive.setCompression(compressionFlags());
+        archive.writeTo(os, grids);
+    } catch (const openvdb::Exception& e) {
+        throw ioError(path, e.what());
     }
-    ::close(fd);
+    std::string bytes = os.str();
+    setContentUuid(bytes);
+    writeFileAtomic(path, bytes);
 }
 
-/// Writes `dir/name` through `dir/.name.tmp` and a rename, so the frame appears only complete.
+namespace {
+
+/// Writes `dir/name`, so the frame appears only complete.
 void writeGridsAtomic(const std::string& dir, const std::string& name,
                       const openvdb::GridCPtrVec& grids) {
-    const std::string prefix = dir.empty() ? std::string() : dir + "/";
-    const std::string path = prefix + name, tmp = prefix + "." + name + ".tmp";
-    try {
-        CheckedArchive archive;
-        archive.setCompression(compressionFlags());
-        archive.writeFile(tmp, path, grids);
-        syncFile(tmp, path);
-        if (std::rename(tmp.c_str(), path.c_str()) != 0) throw ioError(path, errno);
-    } catch (...) {
-        std::remove(tmp.c_str());
-        throw;
-    }
+    writeVdbFileAtomic((dir.empty() ? std::string() : dir + "/") + name, grids);
 }
 
 } // namespace

@@ -6,7 +6,9 @@
 
 #include "overrides.h"
 #include "reader.h"
+#include "syntax_error.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -131,7 +133,15 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     // Read before any vector: `dimension` decides how many components they must have.
     context.dimension = sim.dimension;
     r.real("end_time", sim.endTime, Range::positive());
-    r.real("frame_rate", sim.frameRate, Range::positive());
+    const bool rateGiven = r.real("frame_rate", sim.frameRate, Range::positive());
+    // Each frame is two cache files and a metrics row: a slip of the exponent would fill the
+    // disk long before the run ends.
+    if (sim.endTime * sim.frameRate > kMaxFrames) {
+        r.failAt(rateGiven ? "frame_rate" : "end_time",
+                 "end_time x frame_rate = " + formatNumber(sim.endTime * sim.frameRate) +
+                     " frames; at most " + formatNumber(kMaxFrames) +
+                     " (lower frame_rate or end_time)");
+    }
     r.vector("gravity", sim.gravity);
     r.integer("seed", sim.seed, Range::nonNegative());
     const bool ramp = r.real("gravity_ramp", sim.gravityRamp, Range::nonNegative());
@@ -144,6 +154,17 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     }
     r.real("settle_max_time", sim.settleMaxTime, Range::positive());
     r.real("settle_tolerance", sim.settleTolerance, Range::positive());
+    const bool minGiven = r.vector("domain_min", sim.domainMin);
+    const bool maxGiven = r.vector("domain_max", sim.domainMax);
+    if (minGiven != maxGiven)
+        r.require({"domain_min", "domain_max"}, "a domain (give both, or neither: unbounded)");
+    for (int a = 0; a < sim.dimension && minGiven; ++a)
+        if (!(sim.domainMin[a] < sim.domainMax[a]))
+            r.failAt("domain_max", "must exceed domain_min in every component");
+    if (sim.dimension == 2) { // plane strain: no extent along z
+        sim.domainMin[2] = -std::numeric_limits<double>::infinity();
+        sim.domainMax[2] = std::numeric_limits<double>::infinity();
+    }
     r.finish();
 }
 
@@ -403,6 +424,20 @@ CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
     }
     r.real("from_x", cut.fromX);
     r.real("length", cut.length, Range::positive());
+    const BodyDesc& layer = *std::find_if(bodies.begin(), bodies.end(),
+                                          [&](const BodyDesc& b) { return b.name == cut.layer; });
+    const double x0 = layer.xRange[0], x1 = layer.xRange[1];
+    const std::string span = "[" + formatNumber(x0) + ", " + formatNumber(x1) + "]";
+    if (cut.length >= x1 - x0) {
+        r.failAt("length", formatNumber(cut.length) + " m is not shorter than layer " +
+                               inQuotes(cut.layer) + " (x_range " + span +
+                               "): the cut would leave nothing of it");
+    }
+    if (cut.fromX >= x1 || cut.fromX + cut.length <= x0) {
+        r.failAt("from_x", "the cut [" + formatNumber(cut.fromX) + ", " +
+                               formatNumber(cut.fromX + cut.length) + "] misses layer " +
+                               inQuotes(cut.layer) + " (x_range " + span + ")");
+    }
     r.finish();
     return cut;
 }
@@ -411,6 +446,8 @@ void readOutput(TableReader& r, OutputDesc& output) {
     r.string("directory", output.directory);
     r.boolean("particles", output.particles);
     r.stringList("volumes", output.volumes, {"density", "velocity", "failed", "eta"});
+    r.integer("checkpoint_every_frames", output.checkpointEveryFrames, Range::nonNegative());
+    r.real("checkpoint_every_minutes", output.checkpointEveryMinutes, Range::nonNegative());
     r.finish();
 }
 
@@ -490,8 +527,8 @@ toml::table parseDocument(const std::string& text, const std::string& path) {
         return toml::parse(text, std::string_view(path));
     } catch (const toml::parse_error& e) {
         const auto& at = e.source().begin;
-        throw SceneError(SourceLoc{path, static_cast<int>(at.line), static_cast<int>(at.column)},
-                         "syntax", std::string(e.description()));
+        throw syntaxError(text, path, static_cast<int>(at.line), static_cast<int>(at.column),
+                          std::string(e.description()));
     }
 }
 

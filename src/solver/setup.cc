@@ -6,6 +6,8 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <sstream>
+#include <string>
 #include <unordered_set>
 #include <utility>
 
@@ -156,6 +158,15 @@ SeedRegion regionOf(const SceneDesc& scene, std::size_t bodyIndex,
     return r;
 }
 
+/// Thickness fields of every body (a layer's noise; plain t0 otherwise).
+std::vector<ThicknessField> thicknessFields(const SceneDesc& scene) {
+    std::vector<ThicknessField> fields;
+    for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi)
+        fields.push_back(ThicknessField::of(scene.bodies[bi], scene.simulation.seed, bi,
+                                            scene.simulation.dimension));
+    return fields;
+}
+
 bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
     for (const CutDesc& cut : scene.cuts)
         if (!body.name.empty() && cut.layer == body.name && p[0] >= cut.fromX &&
@@ -181,9 +192,7 @@ void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders,
     const bool lattice = int(std::lround(std::pow(double(k), dim))) == ppc;
     const float jitter = float(scene.grid.jitter);
 
-    std::vector<ThicknessField> fields;
-    for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi)
-        fields.push_back(ThicknessField::of(scene.bodies[bi], scene.simulation.seed, bi, dim));
+    const std::vector<ThicknessField> fields = thicknessFields(scene);
     std::vector<SeedRegion> regions;
     for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
         const BodyDesc& body = scene.bodies[bi];
@@ -300,6 +309,40 @@ void markSlabMaterials(const SceneDesc& scene, std::vector<Material>& materials)
     }
 }
 
+/// "body 2" or "body \"slab\"", as scene messages name bodies.
+std::string bodyLabel(const SceneDesc& scene, std::size_t b) {
+    const std::string& name = scene.bodies[b].name;
+    return "body " + (name.empty() ? std::to_string(b + 1) : "\"" + name + "\"");
+}
+
+/// A body that seeds nothing, or only particles inside the terrain (which the ground would
+/// throw out at the first step), is a scene error: the user meant something else.
+void checkEveryBodySeeded(const SceneDesc& scene, const World& world,
+                          const std::vector<std::uint32_t>& bodyOf) {
+    const std::size_t bodies = scene.bodies.size();
+    std::vector<std::size_t> seeded(bodies, 0);
+    std::vector<bool> aboveGround(bodies, world.colliders.empty());
+    const ParticleSet& ps = world.particles;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const std::uint32_t b = bodyOf[i];
+        ++seeded[b];
+        if (!aboveGround[b]) aboveGround[b] = groundDistance(world.colliders, ps.x[i]) >= 0.f;
+    }
+    std::ostringstream dx;
+    dx << scene.grid.dx;
+    for (std::size_t b = 0; b < bodies; ++b) {
+        const BodyDesc& body = scene.bodies[b];
+        if (seeded[b] == 0)
+            throw SceneError(body.loc, bodyLabel(scene, b),
+                             "seeds no particles at dx = " + dx.str() +
+                                 " m: it lies inside earlier bodies, or is smaller than a cell");
+        if (!aboveGround[b])
+            throw SceneError(body.loc, bodyLabel(scene, b),
+                             "lies entirely inside the terrain: all its " +
+                                 std::to_string(seeded[b]) + " particles are below the ground");
+    }
+}
+
 /// Seeds the bodies in two passes (count, then fill) so the particle arrays are allocated once
 /// at their final size: growing them would transiently need up to twice the memory.
 void seedBodies(const SceneDesc& scene, World& world) {
@@ -321,12 +364,52 @@ void seedBodies(const SceneDesc& scene, World& world) {
         bodyOf.push_back(std::uint32_t(bi));
         if (!inCut) ++world.particlesPerBody[bi];
     });
+    checkEveryBodySeeded(scene, world, bodyOf);
     const std::vector<bool> resting = restingBodies(scene, world, bodyOf);
     for (std::size_t i = 0; i < bodyOf.size(); ++i)
         if (!resting[bodyOf[i]]) world.particles.plastic[i].flags |= kFlagOutsideSettling;
 }
 
 } // namespace
+
+std::vector<double> estimateParticlesPerBody(const SceneDesc& scene) {
+    const int dim = scene.simulation.dimension;
+    const double dx = scene.grid.dx;
+    std::vector<Collider> colliders;
+    for (const TerrainDesc& t : scene.terrains) colliders.push_back(Collider::fromDesc(t, dim));
+    const std::vector<ThicknessField> fields = thicknessFields(scene);
+    std::vector<SeedRegion> regions;
+    std::vector<double> estimate;
+    for (std::size_t bi = 0; bi < scene.bodies.size(); ++bi) {
+        regions.push_back(regionOf(scene, bi, colliders, fields));
+        const SeedRegion& region = regions.back();
+        // Cell centres of a lattice coarse enough for kSamples points over the bounding box,
+        // never finer than the grid: each inside one stands for (h/dx)^dim cells.
+        constexpr double kSamples = 2e5;
+        double cells = 1.0;
+        for (int a = 0; a < dim; ++a)
+            cells *= std::max(1.0, double(region.hi[a] - region.lo[a]) / dx);
+        const double h = dx * std::max(1.0, std::pow(cells / kSamples, 1.0 / dim));
+        std::array<long, 3> n{1, 1, 1};
+        for (int a = 0; a < dim; ++a)
+            n[a] = std::max(1L, long(std::ceil(double(region.hi[a] - region.lo[a]) / h)));
+        std::size_t inside = 0;
+        for (long i = 0; i < n[0]; ++i)
+            for (long j = 0; j < n[1]; ++j)
+                for (long k = 0; k < n[2]; ++k) {
+                    const long idx[3] = {i, j, k};
+                    Vec3f p = region.lo;
+                    for (int a = 0; a < dim; ++a) p[a] += float((double(idx[a]) + 0.5) * h);
+                    if (!region.inside(p)) continue;
+                    bool taken = false;
+                    for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
+                        taken = regions[e].inside(p);
+                    inside += !taken;
+                }
+        estimate.push_back(double(inside) * std::pow(h / dx, dim) * scene.grid.particlesPerCell);
+    }
+    return estimate;
+}
 
 std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
                                   const std::function<bool()>& interrupted) {
@@ -344,6 +427,8 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
     w.sleep = scene.grid.sleep;
     w.sleepSpeed = float(scene.grid.sleepSpeed);
     w.sleepSteps = scene.grid.sleepSteps;
+    w.domainMin = toVec3f(scene.simulation.domainMin);
+    w.domainMax = toVec3f(scene.simulation.domainMax);
     for (const MaterialDesc& m : scene.materials)
         w.materials.push_back(Material::fromDesc(m, w.dim));
     markSlabMaterials(scene, w.materials);
@@ -351,6 +436,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
 
     w.particles.dim = w.dim;
     w.particles.dx = w.dx;
+    if (stage == BuildStage::Bare) return world;
     seedBodies(scene, w);
     for (std::size_t i = 0; i < w.particles.size(); ++i) {
         const Material& m = w.materials[w.particles.material[i]];
@@ -373,6 +459,25 @@ std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
     for (std::size_t i = 0; i < w.particles.size(); ++i)
         w.maxSpeed = std::max(w.maxSpeed, w.particles.v[i].norm());
     return world;
+}
+
+std::size_t removeOutflow(World& world) {
+    ParticleSet& ps = world.particles;
+    std::size_t outside = 0;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const Vec3f& x = ps.x[i];
+        // A non-finite position is not outflow: the stability watch reports it.
+        bool out = false;
+        for (int a = 0; a < world.dim; ++a)
+            out = out || x[a] < world.domainMin[a] || x[a] > world.domainMax[a];
+        if (out) ps.plastic[i].flags |= kFlagOutside, ++outside;
+    }
+    if (outside == 0) return 0;
+    const ParticleSet gone = ps.extractFlagged(kFlagOutside);
+    for (float m : gone.mass) world.outflowMass += m;
+    ps.bucketByLeaf();
+    applyPlasticity(world, world.time); // bucketing leaves the stress undefined
+    return outside;
 }
 
 } // namespace firn

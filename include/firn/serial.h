@@ -1,0 +1,91 @@
+// Plain binary (de)serialisation for checkpoints: values and arrays of trivially copyable types
+// in native byte order (a checkpoint is read back by the same build on the same kind of
+// machine; its header records the format and Firn version). Reads are bounds-checked.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace firn {
+
+/// Types whose bytes are their value: trivially copyable ones, and fixed-size Eigen vectors and
+/// matrices (plain arrays of scalars that declare their own copy constructor).
+template <typename T>
+constexpr bool kPlainBytes = std::is_trivially_copyable_v<T> ||
+                             (std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T>);
+
+class ByteWriter {
+public:
+    template <typename T> void value(const T& v) {
+        static_assert(kPlainBytes<T>);
+        const auto* p = reinterpret_cast<const char*>(&v);
+        mBytes.append(p, sizeof(T));
+    }
+    template <typename T> void array(const std::vector<T>& v) {
+        static_assert(kPlainBytes<T>);
+        value(std::uint64_t(v.size()));
+        mBytes.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
+    void string(const std::string& s) {
+        value(std::uint64_t(s.size()));
+        mBytes += s;
+    }
+    const std::string& bytes() const { return mBytes; }
+    std::string& bytes() { return mBytes; }
+
+private:
+    std::string mBytes;
+};
+
+/// Thrown when a read runs past the end: the data is truncated or not what the reader expects.
+class ByteReadError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+class ByteReader {
+public:
+    ByteReader(const char* data, std::size_t size)
+        : mData(data)
+        , mSize(size) {}
+    template <typename T> void value(T& v) {
+        static_assert(kPlainBytes<T>);
+        std::memcpy(static_cast<void*>(&v), take(sizeof(T)), sizeof(T));
+    }
+    template <typename T> T value() {
+        T v{};
+        value(v);
+        return v;
+    }
+    template <typename T> void array(std::vector<T>& v) {
+        static_assert(kPlainBytes<T>);
+        const std::uint64_t n = value<std::uint64_t>();
+        if (n > (mSize - mOffset) / (sizeof(T) ? sizeof(T) : 1))
+            throw ByteReadError("array of " + std::to_string(n) + " items runs past the end");
+        v.resize(n);
+        if (n) std::memcpy(static_cast<void*>(v.data()), take(n * sizeof(T)), n * sizeof(T));
+    }
+    void string(std::string& s) {
+        const std::uint64_t n = value<std::uint64_t>();
+        if (n > mSize - mOffset) throw ByteReadError("string runs past the end");
+        s.assign(take(n), n);
+    }
+    std::size_t remaining() const { return mSize - mOffset; }
+
+private:
+    const char* take(std::size_t n) {
+        if (n > mSize - mOffset) throw ByteReadError("read past the end");
+        const char* p = mData + mOffset;
+        mOffset += n;
+        return p;
+    }
+    const char* mData;
+    std::size_t mSize;
+    std::size_t mOffset = 0;
+};
+
+} // namespace firn
