@@ -91,6 +91,13 @@ int scene(const std::uint8_t* data, std::size_t size) {
     // which the resolved TOML writes altered (or empty). Until src/scene/overrides.cc rejects
     // it, such inputs skip the round trip (they are still parsed); remove this line then.
     if (!std::all_of(overrides.begin(), overrides.end(), validUtf8)) return 0;
+    // Open finding (fuzz/README.md; regressions/scene/open-tomlpp-*.toml): toml++ 3.3.0 writes a
+    // string that starts with a newline as a multi-line string, whose first newline TOML trims.
+    // Until parseScene writes its resolved TOML without multi-line strings, skip those.
+    const std::string& resolved = desc.resolvedToml;
+    if (resolved.find("'''\n") != std::string::npos ||
+        resolved.find("\"\"\"\n") != std::string::npos)
+        return 0;
     SceneDesc again;
     try {
         again = parseScene(desc.resolvedToml, kPath, {});
