@@ -41,39 +41,6 @@ void split(const std::string& input, std::string& text, std::vector<std::string>
     }
 }
 
-// Whether `text` is well-formed UTF-8 (no overlong forms, surrogates or code points past
-// U+10FFFF), as TOML requires of every string.
-bool validUtf8(const std::string& text) {
-    for (std::size_t i = 0; i < text.size();) {
-        const unsigned char c = static_cast<unsigned char>(text[i]);
-        int length = 0;
-        unsigned lo = 0x80, hi = 0xBF; // the second byte's range
-        if (c < 0x80) {
-            ++i;
-            continue;
-        } else if (c >= 0xC2 && c <= 0xDF) {
-            length = 2;
-        } else if (c >= 0xE0 && c <= 0xEF) {
-            length = 3;
-            if (c == 0xE0) lo = 0xA0;
-            if (c == 0xED) hi = 0x9F;
-        } else if (c >= 0xF0 && c <= 0xF4) {
-            length = 4;
-            if (c == 0xF0) lo = 0x90;
-            if (c == 0xF4) hi = 0x8F;
-        } else {
-            return false;
-        }
-        if (i + length > text.size()) return false;
-        for (int k = 1; k < length; ++k) {
-            const unsigned char next = static_cast<unsigned char>(text[i + k]);
-            if (next < (k == 1 ? lo : 0x80) || next > (k == 1 ? hi : 0xBF)) return false;
-        }
-        i += length;
-    }
-    return true;
-}
-
 } // namespace
 
 int scene(const std::uint8_t* data, std::size_t size) {
@@ -86,18 +53,6 @@ int scene(const std::uint8_t* data, std::size_t size) {
     } catch (const FirnError&) {
         return 0; // SceneError: the expected answer to bad input
     }
-    // Open finding (fuzz/README.md; regressions/scene/open-set-invalid-utf8-*.toml): a --set
-    // value that is not a TOML value and not valid UTF-8 is kept as a string of those bytes,
-    // which the resolved TOML writes altered (or empty). Until src/scene/overrides.cc rejects
-    // it, such inputs skip the round trip (they are still parsed); remove this line then.
-    if (!std::all_of(overrides.begin(), overrides.end(), validUtf8)) return 0;
-    // Open finding (fuzz/README.md; regressions/scene/open-tomlpp-*.toml): toml++ 3.3.0 writes a
-    // string that starts with a newline as a multi-line string, whose first newline TOML trims.
-    // Until parseScene writes its resolved TOML without multi-line strings, skip those.
-    const std::string& resolved = desc.resolvedToml;
-    if (resolved.find("'''\n") != std::string::npos ||
-        resolved.find("\"\"\"\n") != std::string::npos)
-        return 0;
     SceneDesc again;
     try {
         again = parseScene(desc.resolvedToml, kPath, {});

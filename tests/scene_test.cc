@@ -452,7 +452,7 @@ TEST_CASE("Overrides apply before validation and show in the resolved TOML", "[s
     CHECK(scene.output.volumes == std::vector<std::string>{"failed"});
     CHECK(scene.output.directory == "out/other");
     CHECK(scene.resolvedToml.find("dx = 0.025") != std::string::npos);
-    CHECK(scene.resolvedToml.find("transfer = 'pic'") != std::string::npos);
+    CHECK(scene.resolvedToml.find("transfer = \"pic\"") != std::string::npos);
     CHECK(parseScene(scene.resolvedToml, kPath).grid.dx == 0.025);
 }
 
@@ -556,4 +556,18 @@ TEST_CASE("A saw cut must leave part of its layer", "[scene][errors]") {
                                                     "-0.4] misses layer \"weak\" (x_range [0, 6])");
     // Hanging over an end is a cut at that end, as PST scenes may write it.
     CHECK(errorOf(layer, {"cut.weak.from_x=5.7"}) == "no error");
+}
+
+TEST_CASE("The as-run TOML reads back as the same scene (fuzzing found two ways it did not)",
+          "[scene]") {
+    // A --set value that is not UTF-8 would be written altered into scene.toml.
+    CHECK(errorOf(kMinimal, {"simulation.name=a\xC8"
+                             "b"}) == "--set: error: not valid UTF-8 text");
+    // toml++ 3.3 wrote a string starting with a newline as a multi-line one, whose first
+    // newline TOML drops on reading.
+    const SceneDesc scene = parseScene(kMinimal, kPath, {"simulation.name=\"\\nly\""});
+    CHECK(scene.simulation.name == "\nly");
+    const SceneDesc again = parseScene(scene.resolvedToml, kPath);
+    CHECK(again.simulation.name == "\nly");
+    CHECK(again.resolvedToml == scene.resolvedToml);
 }

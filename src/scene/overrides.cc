@@ -72,7 +72,42 @@ toml::table& targetTable(toml::table& root, const std::vector<std::string>& part
     return *table;
 }
 
+/// Well-formed UTF-8 (RFC 3629: no overlong forms, surrogates or code points past U+10FFFF).
+/// TOML text is UTF-8; a bare-word value of other bytes would be written altered into the
+/// as-run scene.toml and read back as something else.
+bool validUtf8(std::string_view text) {
+    for (std::size_t i = 0; i < text.size();) {
+        const unsigned char c = static_cast<unsigned char>(text[i]);
+        int length = 0;
+        unsigned lo = 0x80, hi = 0xBF; // the second byte's range
+        if (c < 0x80) {
+            ++i;
+            continue;
+        } else if (c >= 0xC2 && c <= 0xDF) {
+            length = 2;
+        } else if (c >= 0xE0 && c <= 0xEF) {
+            length = 3;
+            if (c == 0xE0) lo = 0xA0;
+            if (c == 0xED) hi = 0x9F;
+        } else if (c >= 0xF0 && c <= 0xF4) {
+            length = 4;
+            if (c == 0xF0) lo = 0x90;
+            if (c == 0xF4) hi = 0x8F;
+        } else {
+            return false;
+        }
+        if (i + length > text.size()) return false;
+        for (int k = 1; k < length; ++k) {
+            const unsigned char next = static_cast<unsigned char>(text[i + k]);
+            if (next < (k == 1 ? lo : 0x80) || next > (k == 1 ? hi : 0xBF)) return false;
+        }
+        i += length;
+    }
+    return true;
+}
+
 void applyOverride(toml::table& root, const std::string& text) {
+    if (!validUtf8(text)) throw SceneError(kSetLoc, "", "not valid UTF-8 text");
     const auto eq = text.find('=');
     const std::string path = trim(std::string_view(text).substr(0, eq));
     if (eq == std::string::npos) throw SceneError(kSetLoc, path, kUsage);
