@@ -7,7 +7,7 @@ frame, at the end and at its peak, with the growth between the second quarter of
 end (after start-up allocations have settled). Not a CI test: it takes tens of minutes.
 
     /usr/bin/python3 bench/soak.py [--scene scenes/pst3d.toml] [--factor 10] [--threads 2]
-        [--firn build/firn] [--out /tmp/firn-soak]
+        [--firn build/firn] [--out /tmp/firn-soak] [--set key=value ...]
 
 Writes OUT/rss.csv (seconds, frame, rss_bytes) and prints a summary line per quantity.
 """
@@ -49,6 +49,8 @@ def main():
     ap.add_argument("--firn", default=os.path.join(root, "build", "firn"))
     ap.add_argument("--out", default="/tmp/firn-soak")
     ap.add_argument("--interval", type=float, default=2.0, help="seconds between samples")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="passed to firn run (e.g. grid.dx=0.045 for a cheaper soak)")
     args = ap.parse_args()
 
     with open(args.scene, "rb") as f:
@@ -56,6 +58,8 @@ def main():
     cmd = [args.firn, "run", args.scene, "--out", args.out, "--quiet", "--threads",
            str(args.threads), "--set", f"simulation.end_time={end_time * args.factor}",
            "--set", "output.particles=false", "--checkpoint-every", "0"]
+    for kv in args.set:
+        cmd += ["--set", kv]
     print(" ".join(cmd), file=sys.stderr)
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
