@@ -1,18 +1,22 @@
-// Checkpoint and resume, end to end with the real binary: a run killed with SIGKILL at random
-// moments and resumed (with another thread count) finishes bitwise as the run that was never
-// interrupted; damaged checkpoints are skipped with a warning; checkpoints of another scene or
-// another format are refused.
+// Checkpoint and resume: in process, a world saved and loaded steps on bitwise as the original;
+// end to end with the real binary ([slow]: ~10 runs, too long under the sanitizers), a run killed
+// with SIGKILL at random moments and resumed (with another thread count) finishes bitwise as the
+// run that was never interrupted; damaged checkpoints are skipped with a warning; checkpoints of
+// another scene or another format are refused.
 #include "firn_process.h"
 
 #include <firn/checkpoint.h>
+#include <firn/solver.h>
 
 #include <catch2/catch.hpp>
 
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <set>
 
 namespace fs = std::filesystem;
+using namespace firn;
 using namespace firn::test;
 
 namespace {
@@ -108,7 +112,7 @@ void checkSameRun(const std::string& a, const std::string& b) {
 
 } // namespace
 
-TEST_CASE("a run killed at random moments resumes to the same bytes", "[checkpoint]") {
+TEST_CASE("a run killed at random moments resumes to the same bytes", "[checkpoint][slow]") {
     TempDir dir("firn-checkpoint");
     const std::string reference = dir.path() + "/reference";
     const auto t0 = std::chrono::steady_clock::now();
@@ -160,7 +164,8 @@ TEST_CASE("a run killed at random moments resumes to the same bytes", "[checkpoi
     }
 }
 
-TEST_CASE("a damaged checkpoint is skipped with a warning, a foreign one refused", "[checkpoint]") {
+TEST_CASE("a damaged checkpoint is skipped with a warning, a foreign one refused",
+          "[checkpoint][slow]") {
     // One uninterrupted run serves every section (Catch runs the case once per section).
     static TempDir dir("firn-checkpoint-damaged");
     const std::string reference = dir.path() + "/reference";
@@ -231,4 +236,72 @@ TEST_CASE("a damaged checkpoint is skipped with a warning, a foreign one refused
         REQUIRE(runFirn(args, dir).code == 0);
         CHECK(fs::is_empty(out + "/checkpoints"));
     }
+}
+
+TEST_CASE("a world saved and loaded steps on bitwise as the original", "[checkpoint]") {
+    // A granular sphere thrown onto a plane beside a box resting there, asleep by the save.
+    const SceneDesc scene = sceneFromText(R"([simulation]
+name = "roundtrip"
+dimension = 2
+end_time = 1.0
+
+[grid]
+dx = 0.05
+particles_per_cell = 4
+sleep_steps = 20
+
+[[material]]
+name = "sand"
+model = "granular"
+
+[[terrain]]
+shape = "plane"
+point = [0.0, 0.0]
+normal = [0.0, 1.0]
+
+[[body]]
+material = "sand"
+shape = "box"
+min = [0.0, 0.0]
+max = [1.0, 0.3]
+
+[[body]]
+material = "sand"
+shape = "sphere"
+center = [3.0, 1.0]
+radius = 0.2
+velocity = [1.0, -1.0]
+)");
+    TempDir dir("firn-checkpoint-roundtrip");
+    auto original = buildWorld(scene);
+    advanceTo(*original, 0.8);
+    REQUIRE(asleepCount(*original) > 0);
+    writeCheckpoint(dir.path(), 7, scene.resolvedToml, scene.path, *original, "run state");
+
+    auto loaded = buildWorld(scene, BuildStage::Bare);
+    const LoadedCheckpoint c = loadNewestCheckpoint(dir.path(), scene.resolvedToml, *loaded);
+    CHECK(c.frame == 7);
+    CHECK(c.runState == "run state");
+    CHECK(c.warnings.empty());
+    for (World* w : {original.get(), loaded.get()}) advanceTo(*w, 0.9);
+    const ParticleSet &a = original->particles, &b = loaded->particles;
+    CHECK(loaded->steps == original->steps);
+    CHECK(loaded->time == original->time);
+    auto same = [](const auto& x, const auto& y) {
+        return x.size() == y.size() &&
+               std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])) == 0;
+    };
+    CHECK(same(a.x, b.x));
+    CHECK(same(a.v, b.v));
+    CHECK(same(a.C, b.C));
+    CHECK(same(a.H, b.H));
+    CHECK(same(a.plastic, b.plastic));
+    CHECK(same(a.leafSleep, b.leafSleep));
+
+    // Another scene's text: refused; a checkpoint cut short: skipped, and none is left.
+    auto other = buildWorld(scene, BuildStage::Bare);
+    CHECK_THROWS_AS(loadNewestCheckpoint(dir.path(), scene.resolvedToml + "#", *other), SceneError);
+    const std::string file = dir.path() + "/" + checkpointFileName(7);
+    fs::resize_file(file, fs::file_size(file) - 9);
+    CHECK_THROWS_AS(loadNewestCheckpoint(dir.path(), scene.resolvedToml, *other), IoError);
 }
