@@ -12,6 +12,17 @@
 
 namespace firn {
 
+/// 64-bit FNV-1a of `size` bytes (Fowler, Noll, Vo), continuing from `h`: checkpoint
+/// checksums and content UUIDs of .vdb files. Not cryptographic; it detects damage.
+inline std::uint64_t fnv1a64(const char* data, std::size_t size,
+                             std::uint64_t h = 0xcbf29ce484222325ull) {
+    for (std::size_t i = 0; i < size; ++i) {
+        h ^= static_cast<unsigned char>(data[i]);
+        h *= 0x100000001b3ull;
+    }
+    return h;
+}
+
 /// Types whose bytes are their value: trivially copyable ones, and fixed-size Eigen vectors and
 /// matrices (plain arrays of scalars that declare their own copy constructor).
 template <typename T>

@@ -20,17 +20,8 @@ constexpr char kMagic[8] = {'F', 'I', 'R', 'N', 'C', 'K', 'P', 'T'};
 constexpr const char* kStem = "checkpoint.";
 constexpr const char* kSuffix = ".firn";
 
-std::uint64_t fnv1a(const char* data, std::size_t size) {
-    std::uint64_t h = 0xcbf29ce484222325ull;
-    for (std::size_t i = 0; i < size; ++i) {
-        h ^= static_cast<unsigned char>(data[i]);
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
 std::uint64_t hashOf(const std::string& text) {
-    return fnv1a(text.data(), text.size());
+    return fnv1a64(text.data(), text.size());
 }
 
 void saveWorld(ByteWriter& out, const World& w) {
@@ -171,7 +162,7 @@ LoadedCheckpoint loadNewestCheckpoint(const std::string& dir, const std::string&
             const char* payload = bytes.data() + 20;
             std::uint64_t stored = 0;
             std::memcpy(&stored, payload + length, sizeof stored);
-            if (stored != fnv1a(payload, length)) throw ByteReadError("checksum mismatch");
+            if (stored != fnv1a64(payload, length)) throw ByteReadError("checksum mismatch");
             ByteReader in(payload, length);
             std::string version, scenePath;
             in.string(version);

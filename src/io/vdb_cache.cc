@@ -2,6 +2,7 @@
 // OpenVDB's point conversion and I/O headers cost about half a minute of compile time each
 // time they are included.
 #include <firn/io.h>
+#include <firn/serial.h>
 
 #include "vdb_file.h"
 
@@ -256,16 +257,6 @@ uint32_t compressionFlags() {
     return codec | openvdb::io::COMPRESS_ACTIVE_MASK;
 }
 
-/// 64-bit FNV-1a of `bytes` from `begin`, started from `basis`.
-std::uint64_t fnv1a(const std::string& bytes, std::size_t begin, std::uint64_t basis) {
-    std::uint64_t h = basis;
-    for (std::size_t i = begin; i < bytes.size(); ++i) {
-        h ^= static_cast<unsigned char>(bytes[i]);
-        h *= 0x100000001b3ull;
-    }
-    return h;
-}
-
 /// An OpenVDB file's header holds a random UUID (36 characters after the magic number, the
 /// file and library versions and the grid-offsets flag): two writes of the same grids differ
 /// there and only there. Replacing it with one made from a hash of the rest keeps it unique per
@@ -276,8 +267,8 @@ void setContentUuid(std::string& file) {
     if (file.size() < kUuidOffset + kUuidLength || file[kUuidOffset + 8] != '-')
         throw std::logic_error("unexpected OpenVDB header layout");
     const std::size_t rest = kUuidOffset + kUuidLength;
-    const std::uint64_t hi = fnv1a(file, rest, 0xcbf29ce484222325ull);
-    std::uint64_t lo = fnv1a(file, rest, 0x84222325cbf29ce4ull);
+    const std::uint64_t hi = fnv1a64(file.data() + rest, file.size() - rest);
+    std::uint64_t lo = fnv1a64(file.data() + rest, file.size() - rest, 0x84222325cbf29ce4ull);
     // RFC 9562 version 8 (vendor-specific) with the RFC variant bits.
     const std::uint64_t hiV8 = (hi & ~0xf000ull) | 0x8000ull;
     lo = (lo & 0x3fffffffffffffffull) | 0x8000000000000000ull;
