@@ -215,8 +215,9 @@ TEST_CASE("a damaged checkpoint is skipped with a warning, a foreign one refused
         writeText(out + newest, bytes);
         const Outcome o = runFirn({"run", "--resume", out}, dir);
         CHECK(o.code == 1);
-        CHECK(o.err.find("error: checkpoint: written in checkpoint format 2, this Firn reads "
-                         "format 1") != std::string::npos);
+        CHECK(o.err.find("error: checkpoint: written in checkpoint format " +
+                         std::to_string(kCheckpointFormat + 1) + ", this Firn reads format " +
+                         std::to_string(kCheckpointFormat)) != std::string::npos);
     }
     SECTION("no checkpoint at all, or no run") {
         const std::string out = copyRun("none");

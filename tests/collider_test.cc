@@ -62,7 +62,7 @@ TEST_CASE("a bad DEM names the file and line", "[collider]") {
     }
     REQUIRE_THROWS_WITH(Collider::fromDesc(desc, 3),
                         desc.file + ":8: error: heightfield: NODATA cell at row 2, column 2: "
-                                    "fill the DEM first");
+                                    "fill the DEM first, or set nodata = \"fill\" on the terrain");
     {
         std::ofstream out(desc.file);
         out << "ncols 3\nnrows 2\nxllcorner 0\ncellsize 1\n1 2 3\n4 5 6\n";

@@ -18,7 +18,7 @@
 namespace firn {
 
 /// Bump when the payload's layout changes; older files are then refused with a message.
-constexpr std::uint32_t kCheckpointFormat = 1;
+constexpr std::uint32_t kCheckpointFormat = 2; // 2: peak fields and the COM path
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

@@ -14,7 +14,8 @@ namespace firn {
 
 class Collider {
 public:
-    /// Throws SceneError for shapes that cannot be built (an unreadable heightfield).
+    /// Throws SceneError for shapes that cannot be built (an unreadable heightfield). A
+    /// heightfield is read (readDem, firn/gis.h) and moved by the desc's fileOrigin.
     static Collider fromDesc(const TerrainDesc& desc, int dim);
 
     /// Signed distance to the ground surface: > 0 above (outside), <= 0 inside.
@@ -23,13 +24,21 @@ public:
     Vec3f normal(const Vec3f& x) const;
     /// Ground height under x (profile and plane; used to drape layers), m.
     float heightAt(float xCoord, float zCoord) const;
+    /// True where this collider has ground of its own under (x, z): a heightfield within its
+    /// grid's extent (beyond it the edge heights continue), every other shape everywhere.
+    bool covers(double xCoord, double zCoord) const;
 
     /// Grid velocity after the boundary condition at a node inside the collider with outward
     /// normal n: separating motion is free; approaching motion loses its normal part and, for
-    /// friction, the tangential part shrinks by mu |v_n| (Coulomb) or stops.
+    /// friction and voellmy, the tangential part shrinks by mu |v_n| (Coulomb) or stops.
+    /// Voellmy's turbulent part acts on particles (applyBasalDrag, firn/solver.h).
     Vec3f applyBoundary(const Vec3f& v, const Vec3f& n) const;
 
     Boundary boundary() const { return mBoundary; }
+    /// Voellmy's turbulent friction xi, m/s^2; 0 for the other boundaries (no basal drag).
+    float turbulence() const { return mBoundary == Boundary::Voellmy ? mTurbulence : 0.f; }
+    /// The DEM of a heightfield collider (in the simulation's frame), else null.
+    const Heightfield* heightfield() const { return mHeightfield.get(); }
     /// True for ground that carries weight under `gravity`: profiles and heightfields, and
     /// planes that face against gravity by more than about 6 degrees (not walls or ceilings).
     bool carriesWeight(const Vec3f& gravity) const;
@@ -45,6 +54,7 @@ private:
     TerrainShape mShape = TerrainShape::Plane;
     Boundary mBoundary = Boundary::Friction;
     float mFriction = 0.4f;
+    float mTurbulence = 2000.f;
     int mDim = 3;
     Vec3f mPoint = Vec3f::Zero();
     Vec3f mNormal = Vec3f::UnitY();

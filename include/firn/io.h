@@ -39,6 +39,9 @@ struct FrameInfo {
     int frame = 0;
     double time = 0.0; ///< simulated time, s
     double frameRate = 24.0;
+    /// The simulation's local frame origin in scene coordinates (World::origin): added to the
+    /// grids' transforms, so that positions read back are in the scene's coordinates.
+    std::array<double, 3> origin = {0.0, 0.0, 0.0};
 };
 
 /// Writes `dir/particles.NNNN.vdb`: one PointDataGrid "points" with P, v, material, failed,

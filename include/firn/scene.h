@@ -2,6 +2,7 @@
 // Parsing knows nothing of OpenVDB; the solver knows nothing of TOML (design.md).
 #pragma once
 
+#include <firn/dem.h>
 #include <firn/errors.h>
 
 #include <array>
@@ -18,8 +19,8 @@ using Vec3d = std::array<double, 3>;
 enum class Transfer { Apic, Pic, Flip };
 enum class MaterialModel { Elastic, Snow, WeakLayer, Granular };
 enum class TerrainShape { Plane, Profile, Heightfield };
-enum class Boundary { Friction, Slip, Sticky };
-enum class BodyShape { Box, Sphere, Layer };
+enum class Boundary { Friction, Slip, Sticky, Voellmy };
+enum class BodyShape { Box, Sphere, Layer, Polygon };
 enum class ColorBy { Density, Speed, Failed, Eta };
 
 /// The most frames a scene may ask for (simulation.end_time x frame_rate).
@@ -110,8 +111,14 @@ struct TerrainDesc {
     Vec3d normal = {0.0, 1.0, 0.0};            ///< plane, normalised on read
     std::vector<std::array<double, 2>> points; ///< profile: (x, y), x strictly increasing
     std::string file; ///< heightfield: path resolved against the scene's folder
+    NoDataPolicy noData = NoDataPolicy::Error; ///< heightfield: what NODATA cells become
+    /// heightfield: the local frame's origin (SceneDesc::frameOrigin), subtracted from the DEM's
+    /// coordinates as it is read; set by toLocalFrame (firn/gis.h), not a scene key.
+    Vec3d fileOrigin = {0.0, 0.0, 0.0};
     Boundary boundary = Boundary::Friction;
-    double friction = 0.4;
+    double friction = 0.4; ///< Coulomb coefficient mu (friction and voellmy)
+    /// voellmy: the turbulent friction coefficient xi, m/s^2 (RAMMS: 1000-4000 for dense flows)
+    double turbulence = 2000.0;
     SourceLoc loc;
 };
 
@@ -131,13 +138,25 @@ struct BodyDesc {
     Vec3d center = {0, 0, 0};               ///< sphere
     double radius = 0.0;                    ///< sphere
     Vec3d velocity = {0, 0, 0};             ///< m/s
-    std::string onTopOf = "ground";         ///< layer: "ground" or the name of another layer body
-    double thickness = 0.0;                 ///< layer, m, normal to the ground
+    std::string onTopOf = "ground"; ///< layer, polygon: "ground" or the name of another layer body
+    double thickness = 0.0; ///< layer, polygon, m, normal to the ground (polygon: 0 = attribute)
     std::array<double, 2> xRange = {0, 0};
     std::array<double, 2> zRange = {0, 0};
     LayerNoiseDesc thicknessNoise;
+    /// polygon: a vector file (shapefile, GeoPackage, GeoJSON) of release areas in the DEM's
+    /// coordinates, and the attribute that holds each area's thickness (m).
+    std::string footprintFile;
+    std::string thicknessAttribute = "thickness";
+    /// polygon: the local frame's origin, subtracted from the file's coordinates as it is read;
+    /// set by toLocalFrame (firn/gis.h), not a scene key.
+    Vec3d footprintOrigin = {0.0, 0.0, 0.0};
     SourceLoc loc;
 };
+
+/// A layer-like body: seeded on the terrain (or on another layer) with a normal thickness.
+inline bool isLayerShape(BodyShape shape) {
+    return shape == BodyShape::Layer || shape == BodyShape::Polygon;
+}
 
 /// [[cut]]: a saw cut, a region of a named layer body removed at t = 0.
 struct CutDesc {
@@ -157,6 +176,10 @@ struct OutputDesc {
     /// and whenever this many minutes of wall time have passed since the last (0: not by time).
     int checkpointEveryFrames = 0;
     double checkpointEveryMinutes = 10.0;
+    /// Peak rasters (pft, pfv, ppr, dft; firn/peak_fields.h) on the DEM's grid, for scenes on a
+    /// heightfield; rasterCell > 0 sets another cell size, m.
+    bool rasters = true;
+    double rasterCell = 0.0;
 };
 
 /// [render]: defaults for `firn render` (its command-line options override them).
@@ -185,6 +208,9 @@ struct SceneDesc {
     OutputDesc output;
     RenderDesc render;
     std::string resolvedToml; ///< the scene as run, overrides applied, as TOML text
+    /// The simulation's local frame: a scene coordinate is frameOrigin plus the simulated one.
+    /// Zero unless toLocalFrame (firn/gis.h) moved a scene on a far-off DEM next to 0.
+    Vec3d frameOrigin = {0.0, 0.0, 0.0};
 };
 
 /// Parses and validates a scene file. `overrides` are "key.path=value" strings (from --set)

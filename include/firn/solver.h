@@ -52,6 +52,9 @@ struct World {
     Vec3f domainMin = Vec3f::Constant(-std::numeric_limits<float>::infinity()); ///< m
     Vec3f domainMax = Vec3f::Constant(std::numeric_limits<float>::infinity());  ///< m
     double outflowMass = 0.0; ///< kg (2D: per metre) removed for leaving the domain so far
+    /// The local frame's origin in scene coordinates (SceneDesc::frameOrigin): outputs add it
+    /// to every position, so that they are in the scene's (the DEM's) coordinates.
+    Vec3d origin = {0.0, 0.0, 0.0};
 };
 
 /// How far buildWorld goes: to t = 0 as the scene asks (settled when simulation.settle), only
@@ -59,11 +62,11 @@ struct World {
 /// and colliders without particles (a resumed run loads its particles from a checkpoint).
 enum class BuildStage { Bare, Seeded, Settled };
 
-/// Builds materials, colliders and seeds particles from the scene's bodies (deterministic from
-/// simulation.seed); with BuildStage::Settled and simulation.settle, settles the resting bodies
-/// under gravity (settleUnderGravity; bodies seeded with a velocity join afterwards), then
-/// applies the saw cuts; `interrupted` (polled while settling) can end settling early. Throws
-/// SceneError for what the scene asks and cannot be built.
+/// Builds, in the scene's local frame (toLocalFrame, firn/gis.h), materials, colliders and seeds
+/// particles from the scene's bodies (deterministic from simulation.seed); with BuildStage::Settled
+/// and simulation.settle, settles the resting bodies under gravity (settleUnderGravity; bodies
+/// seeded with a velocity join afterwards), then applies the saw cuts; `interrupted` (polled while
+/// settling) can end settling early. Throws SceneError for what the scene asks and cannot be built.
 std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage = BuildStage::Settled,
                                   const std::function<bool()>& interrupted = {});
 
@@ -85,6 +88,16 @@ void step(World& world, double dt, StepTimings* timings = nullptr);
 
 /// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions.
 void updateGridVelocity(World& world, float dt);
+
+/// Voellmy's turbulent basal friction (RAMMS; Salm 1993): a basal shear stress rho g u^2 / xi
+/// against the sliding of snow over the `boundary = "voellmy"` terrain, spread over the flow's
+/// depth as a depth-averaged model does: each column of dx (along y) that has snow within a
+/// cell of the bed has flow thickness h = its particles' volume / dx^(d-1) x cos(slope), and
+/// its awake particles lose tangential speed as du/dt = -g u^2 / (xi h), so the column's
+/// momentum per unit bed area falls by rho g u^2 / xi (exact for a plug flow), whatever the
+/// particles per cell or a small gap at the bed. Implicit, u' = u / (1 + g u dt / (xi h)): it
+/// slows, never reverses. The Coulomb part mu sigma_n acts on the grid nodes as for `friction`.
+void applyBasalDrag(World& world, float dt);
 
 /// Return mapping and Kirchhoff stress of every awake particle from its trial F. `stateTime` is
 /// the simulated time the new state belongs to (the end of the step): a slab particle that

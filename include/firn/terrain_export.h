@@ -26,9 +26,10 @@ struct TerrainExtent {
     double x0 = 0, x1 = 0, z0 = 0, z1 = 0;
 };
 
-/// The extent to export for `scene`: the bodies' bounding box grown on every side by the
-/// distance a body could cover in free fall over the run (|v0| T + g T^2 / 2), at most 10 times
-/// the box's size; along x, clipped to the profiles' x range grown by 10 %. 2D: the z range is
+/// The extent to export for `scene`: a heightfield DEM's whole extent; else the bodies' bounding
+/// box grown on every side by the distance a body could cover in free fall over the run (|v0| T + g
+/// T^2 / 2), at most 10 times the box's size; along x, clipped to the profiles' x range grown by 10
+/// %. 2D: the z range is
 /// [-W/2, W/2], W = 0.2 (x1 - x0).
 TerrainExtent terrainExtent(const SceneDesc& scene);
 
@@ -42,8 +43,11 @@ float groundHeightAt(const std::vector<Collider>& colliders, float x, float z);
 /// Writes a Wavefront OBJ of the ground over `extent`: a regular grid at `spacing` (vertices on
 /// the surface, normals from the height gradient), two triangles per cell facing up (+y).
 /// `comment` lines go into the header. Atomic like every output. Throws IoError.
+/// Vertices are written at `origin` plus the colliders' coordinates (the local frame's origin,
+/// SceneDesc::frameOrigin), so that a far-off DEM's terrain is in its own coordinates.
 void writeTerrainObj(const std::string& path, const std::vector<Collider>& colliders,
-                     const TerrainExtent& extent, double spacing, const std::string& comment = "");
+                     const TerrainExtent& extent, double spacing, const std::string& comment = "",
+                     const Vec3d& origin = {0.0, 0.0, 0.0});
 
 /// Writes a VDB file with one FloatGrid "surface" (GRID_LEVEL_SET): the colliders' signed
 /// distance (> 0 above the ground) on voxels within 3 voxels of the surface over `extent`,
@@ -51,10 +55,13 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
 /// as in the volume cache. Metadata as the caches': creator "firn", time 0 and frame 0 (the
 /// ground is static, so it holds for every frame), frame_rate. Blosc compressed, atomic. Throws
 /// IoError.
+/// The transform is translated by `origin` as for the OBJ.
 void writeTerrainLevelSet(const std::string& path, const std::vector<Collider>& colliders,
-                          const TerrainExtent& extent, double voxelSize, double frameRate);
+                          const TerrainExtent& extent, double voxelSize, double frameRate,
+                          const Vec3d& origin = {0.0, 0.0, 0.0});
 
-/// What `firn run` calls as it prepares the output folder: writes `outDir/terrain.obj` and
+/// What `firn run` calls as it prepares the output folder (with the scene in scene coordinates
+/// and the colliders in its local frame, firn/gis.h): writes `outDir/terrain.obj` and
 /// `outDir/terrain.vdb` for the scene's colliders. The OBJ is sampled at about dx (at most
 /// 512 x 512 cells), the level set at dx (coarser when the extent would need more than
 /// 1024 x 1024 columns). A scene without any collider with a height writes neither file and

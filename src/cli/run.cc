@@ -1,6 +1,7 @@
 #include <firn/checkpoint.h>
 #include <firn/diagnostics.h>
 #include <firn/io.h>
+#include <firn/peak_fields.h>
 #include <firn/resources.h>
 #include <firn/run.h>
 #include <firn/slab_fracture.h>
@@ -148,6 +149,9 @@ struct RunState {
     /// something moves). Snow starts moving where it was, so this is the crown's height.
     double releaseTopX = std::nan(""), releaseTopY = std::nan("");
     FrameDiagnostics first, last;
+    /// Horizontal length of the centre of mass's path over the frames, m.
+    double comPathLength = 0;
+    PeakFields peaks; ///< hazard maps on the DEM's grid (empty without a heightfield)
     Clock::time_point start = Clock::now();
     long long stepsAtStart = 0;   ///< a resumed run's step count at its checkpoint
     int checkpointsWritten = 0;   ///< by this process
@@ -159,10 +163,15 @@ std::string cell(double v) {
     return formatNumber(v);
 }
 
+/// A simulated position along `axis` in scene coordinates (World::origin; exact when 0).
+double inScene(const World& w, int axis, double local) {
+    return w.origin[axis] == 0.0 ? local : local + w.origin[axis];
+}
+
 /// Writes frame k (its diagnostics `d` already computed): caches and the metrics row.
 void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWatch* watch) {
     World& w = s.world;
-    const FrameInfo info{k, w.time, s.scene.simulation.frameRate};
+    const FrameInfo info{k, w.time, s.scene.simulation.frameRate, w.origin};
     const OutputDesc& out = s.scene.output;
     w.grid.rebuild(w.particles, 0);
     const VolumeFrame volume = rasterizeVolumes(w.particles, w.grid, w.scratch);
@@ -174,6 +183,11 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
     const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
+    if (k > 0) {
+        const double ex = d.centreOfMass[0] - s.last.centreOfMass[0];
+        const double ez = d.centreOfMass[2] - s.last.centreOfMass[2];
+        s.comPathLength += std::sqrt(ex * ex + ez * ez);
+    }
     if (d.movedTopY > s.releaseTopY || (std::isnan(s.releaseTopY) && !std::isnan(d.movedTopY)))
         s.releaseTopX = d.movedTopX, s.releaseTopY = d.movedTopY;
     const double nan = std::nan("");
@@ -184,24 +198,24 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          std::to_string(d.particles),
                          std::to_string(activeVoxels),
                          cell(d.mass),
-                         cell(d.centreOfMass[0]),
-                         cell(d.centreOfMass[1]),
-                         cell(d.centreOfMass[2]),
+                         cell(inScene(w, 0, d.centreOfMass[0])),
+                         cell(inScene(w, 1, d.centreOfMass[1])),
+                         cell(inScene(w, 2, d.centreOfMass[2])),
                          cell(d.momentum[0]),
                          cell(d.momentum[1]),
                          cell(d.momentum[2]),
                          cell(d.kineticEnergy),
                          cell(d.maxSpeed),
-                         cell(d.frontX),
-                         cell(d.hasWeakLayer ? s.crack.tip() : nan),
+                         cell(inScene(w, 0, d.frontX)),
+                         cell(d.hasWeakLayer ? inScene(w, 0, s.crack.tip()) : nan),
                          cell(d.hasWeakLayer ? s.crack.speed() : nan),
                          cell(d.failedFraction),
                          cell(secondsSince(s.start)),
                          cell(d.elasticEnergy),
                          cell(d.gravitationalEnergy),
                          cell(watch ? watch->drift(d) : 0.0),
-                         cell(d.crackMinX),
-                         cell(d.crackMaxX),
+                         cell(inScene(w, 0, d.crackMinX)),
+                         cell(inScene(w, 0, d.crackMaxX)),
                          std::to_string(asleepCount(w)),
                          std::to_string(s.slab.fractures().size()),
                          cell(s.slab.fracturedMassFraction()),
@@ -218,9 +232,11 @@ std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
     s.crack.save(out);
     s.slab.save(out);
     watch.save(out);
-    for (double v : {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY}) out.value(v);
+    for (double v : {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY, s.comPathLength})
+        out.value(v);
     save(out, s.first);
     save(out, s.last);
+    s.peaks.save(out);
     return out.bytes();
 }
 
@@ -229,9 +245,11 @@ void loadRunState(const std::string& bytes, RunState& s, StabilityWatch& watch) 
     s.crack.load(in);
     s.slab.load(in);
     watch.load(in);
-    for (double* v : {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY}) in.value(*v);
+    for (double* v : {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY, &s.comPathLength})
+        in.value(*v);
     load(in, s.first);
     load(in, s.last);
+    s.peaks.load(in);
 }
 
 /// When checkpoints are written: every N frames, every M minutes of wall time, or both.
@@ -253,13 +271,13 @@ private:
 };
 
 /// Slab fractures (Gaume et al. 2019, sec. 3, Fig. 3) and the slab's blocks at the end.
-void writeSlabSummary(const SlabFractureTracker& slab, JsonObject& j) {
+void writeSlabSummary(const World& w, const SlabFractureTracker& slab, JsonObject& j) {
     std::vector<JsonObject> fractures;
     for (const SlabFracture& f : slab.fractures()) {
         JsonObject o;
-        o.set("x", f.x);
-        o.set("y", f.y);
-        o.set("z", f.z);
+        o.set("x", inScene(w, 0, f.x));
+        o.set("y", inScene(w, 1, f.y));
+        o.set("z", inScene(w, 2, f.z));
         o.set("time", f.time);
         o.set("start_depth_fraction", f.startDepthFraction);
         o.set("distance_behind_crack_tip", f.distanceBehindCrackTip);
@@ -298,11 +316,21 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("max_crack_speed", s.crack.maxSpeed());
     j.set("mean_crack_speed", s.crack.meanSpeed());
     j.set("crack_propagation_distance", s.crack.distance());
-    writeSlabSummary(s.slab, j);
+    writeSlabSummary(w, s.slab, j);
     // Of the snow that moved (kFlagMoved): a base or a slope that never moved is no deposit.
-    j.set("runout_x", s.last.movedFarX);
+    j.set("runout_x", inScene(w, 0, s.last.movedFarX));
     j.set("alpha_angle_deg",
           alphaAngleDeg(s.releaseTopX, s.releaseTopY, s.last.movedFarX, s.last.movedFarY));
+    // The energy-line angle of the centre of mass (V11): its drop over its horizontal path.
+    const double drop = s.first.centreOfMass[1] - s.last.centreOfMass[1];
+    j.set("com_path_length", s.comPathLength);
+    j.set("com_travel_angle_deg",
+          s.comPathLength > 0 ? std::atan2(drop, s.comPathLength) * 180.0 / M_PI : std::nan(""));
+    if (!s.peaks.empty()) {
+        s.peaks.write(r.outDir + "/rasters");
+        j.set("rasters", r.outDir + "/rasters");
+        j.set("raster_samples", s.peaks.samples());
+    }
     const SettleReport& settle = w.settle;
     j.setBool("settle", settle.ran);
     if (settle.ran) {
@@ -331,6 +359,15 @@ void removeOldFrames(const std::string& dir) {
         if (frame && !std::filesystem::remove(entry.path(), ec))
             throw IoError("cannot remove old frame " + entry.path().string() + ": " + ec.message());
     }
+}
+
+/// The run's hazard maps on the grid peakFieldGrid gives (none without a heightfield).
+PeakFields makePeakFields(const SceneDesc& scene, const World& world) {
+    const Georeference grid = peakFieldGrid(scene);
+    if (grid.columns == 0) return {};
+    for (const Collider& c : world.colliders)
+        if (c.heightfield()) return PeakFields(grid, world.origin, *c.heightfield());
+    return {};
 }
 
 /// Settling went unstable (a time step too large for the scene): no frame to keep, but the
@@ -399,6 +436,8 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         options.resume ? std::make_unique<RunState>(scene, *world, result.outDir, resumed.frame)
                        : std::make_unique<RunState>(scene, *world, result.outDir);
     RunState& s = *state;
+    s.peaks = makePeakFields(scene, *world);
+    if (!options.resume) s.peaks.accumulate(world->particles); // the release at t = 0
     const int frames =
         std::max(1, int(std::lround(scene.simulation.endTime * scene.simulation.frameRate)));
     Progress progress(options.quiet, frames);
@@ -430,6 +469,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                 // The last step of a frame is shortened to land on the frame time exactly.
                 s.lastDt = std::min(stableTimeStep(*world), frameEnd - world->time);
                 step(*world, s.lastDt);
+                s.peaks.accumulate(world->particles);
                 if (!std::isfinite(world->maxSpeed)) break;
             }
             removeOutflow(*world); // snow that left the domain (simulation.domain_min/max)

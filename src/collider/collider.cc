@@ -1,4 +1,5 @@
 #include <firn/collider.h>
+#include <firn/gis.h>
 
 #include <cmath>
 #include <limits>
@@ -10,6 +11,7 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     c.mShape = desc.shape;
     c.mBoundary = desc.boundary;
     c.mFriction = static_cast<float>(desc.friction);
+    c.mTurbulence = static_cast<float>(desc.turbulence);
     c.mDim = dim;
     c.mPoint = Vec3f(float(desc.point[0]), float(desc.point[1]), float(desc.point[2]));
     c.mNormal = Vec3f(float(desc.normal[0]), float(desc.normal[1]), float(desc.normal[2]));
@@ -17,8 +19,18 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     c.mNormal.normalize();
     for (const auto& p : desc.points) c.mProfile.push_back({float(p[0]), float(p[1])});
     if (desc.shape == TerrainShape::Heightfield)
-        c.mHeightfield = std::make_shared<const Heightfield>(Heightfield::readEsriAscii(desc.file));
+        c.mHeightfield = std::make_shared<const Heightfield>(
+            readDem(desc.file, desc.noData)
+                .heights.shiftedBy(desc.fileOrigin[0], desc.fileOrigin[2]));
     return c;
+}
+
+bool Collider::covers(double xCoord, double zCoord) const {
+    if (!mHeightfield) return true;
+    const Heightfield& h = *mHeightfield;
+    const double half = 0.5 * h.cellSize();
+    return xCoord >= h.x0() - half && xCoord <= h.x0() + (h.columns() - 0.5) * h.cellSize() &&
+           zCoord >= h.z0() - half && zCoord <= h.z0() + (h.rows() - 0.5) * h.cellSize();
 }
 
 // The polyline is extended past its ends along its first and last segments, so that the

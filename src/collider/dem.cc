@@ -19,11 +19,6 @@ std::string lower(std::string s) {
     return s;
 }
 
-// Far outside any real DEM, these keep the collider's float heights, slopes and normals finite.
-constexpr double kMinCell = 1e-6, kMaxCell = 1e6; // m
-constexpr double kMaxHeight = 1e6;                // |height|, m
-constexpr double kMaxCoordinate = 1e9;            // |centre of the lower-left cell|, m
-
 // A number as messages show it ("1e+06", "0.5").
 std::string formatNumber(double value) {
     std::ostringstream out;
@@ -37,20 +32,22 @@ std::string formatNumber(double value) {
 
 } // namespace
 
-Heightfield Heightfield::readEsriAscii(const std::string& path) {
+Heightfield Heightfield::readEsriAscii(const std::string& path, NoDataPolicy noData) {
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) fail(path, 0, "cannot open the DEM file");
     const std::streamoff size = in.tellg();
     in.seekg(0);
-    return parse(in, std::size_t(std::max<std::streamoff>(size, 0)), path);
+    return parse(in, std::size_t(std::max<std::streamoff>(size, 0)), path, noData);
 }
 
-Heightfield Heightfield::parseEsriAscii(const std::string& text, const std::string& path) {
+Heightfield Heightfield::parseEsriAscii(const std::string& text, const std::string& path,
+                                        NoDataPolicy noData) {
     std::istringstream in(text);
-    return parse(in, text.size(), path);
+    return parse(in, text.size(), path, noData);
 }
 
-Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::string& path) {
+Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::string& path,
+                               NoDataPolicy noData) {
     std::map<std::string, double> header;
     std::string lineText;
     int line = 0;
@@ -97,7 +94,7 @@ Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::st
              "the lower-left corner must be within " + formatNumber(kMaxCoordinate) +
                  " m of the origin");
     const bool hasNoData = header.count("nodata_value");
-    const double noData = hasNoData ? header["nodata_value"] : 0.0;
+    const double noDataValue = hasNoData ? header["nodata_value"] : 0.0;
 
     // Heights in file order, as many as the data holds: memory follows the file's size, not
     // its header (ncols and nrows of 1e9 with no data behind them fail in the first row).
@@ -116,8 +113,14 @@ Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::st
                 fail(path, line + fileRow + 1,
                      "expected " + std::to_string(cells) + " heights, the data ends in row " +
                          std::to_string(fileRow + 1));
-            if (hasNoData && value == noData)
-                fail(path, line + fileRow + 1, "NODATA cell" + at() + ": fill the DEM first");
+            if (hasNoData && value == noDataValue) {
+                if (noData == NoDataPolicy::Error)
+                    fail(path, line + fileRow + 1,
+                         "NODATA cell" + at() +
+                             ": fill the DEM first, or set nodata = \"fill\" on the terrain");
+                h.mHeight.push_back(std::numeric_limits<float>::quiet_NaN());
+                continue;
+            }
             if (!(std::abs(value) <= kMaxHeight))
                 fail(path, line + fileRow + 1,
                      "height " + formatNumber(value) + at() + " is not within " +
@@ -131,6 +134,93 @@ Heightfield Heightfield::parse(std::istream& in, std::size_t size, const std::st
         std::swap_ranges(north, north + h.mColumns,
                          h.mHeight.begin() + std::ptrdiff_t(row) * h.mColumns);
     }
+    if (noData == NoDataPolicy::Fill) h.fillNoData(path);
+    return h;
+}
+
+Heightfield Heightfield::fromGrid(int columns, int rows, double x0, double z0, double cell,
+                                  std::vector<float> heights, const std::string& path,
+                                  NoDataPolicy noData) {
+    if (columns < 2 || rows < 2) fail(path, 0, "needs at least 2 x 2 cells");
+    if (!(cell >= kMinCell && cell <= kMaxCell))
+        fail(path, 0,
+             "cell size " + formatNumber(cell) + " m is not in [" + formatNumber(kMinCell) + ", " +
+                 formatNumber(kMaxCell) + "] m");
+    if (!(std::abs(x0) <= kMaxCoordinate && std::abs(z0) <= kMaxCoordinate))
+        fail(path, 0,
+             "the lower-left corner must be within " + formatNumber(kMaxCoordinate) +
+                 " m of the origin");
+    if (heights.size() != std::size_t(columns) * std::size_t(rows))
+        fail(path, 0,
+             "holds " + std::to_string(heights.size()) + " heights, not " +
+                 std::to_string(columns) + " x " + std::to_string(rows));
+    Heightfield h;
+    h.mColumns = columns, h.mRows = rows;
+    h.mX0 = x0, h.mZ0 = z0, h.mCell = cell;
+    h.mHeight = std::move(heights);
+    std::size_t missing = 0;
+    std::string first;
+    for (int row = rows - 1; row >= 0; --row) // in reading order: from the north
+        for (int column = 0; column < columns; ++column) {
+            const float value = h.at(column, row);
+            // Rows and columns as GIS tools count them: row 1 in the north.
+            const std::string where =
+                "row " + std::to_string(rows - row) + ", column " + std::to_string(column + 1);
+            if (std::isnan(value)) {
+                if (missing++ == 0) first = where;
+            } else if (!(std::abs(value) <= kMaxHeight)) {
+                fail(path, 0,
+                     "height " + formatNumber(value) + " at " + where + " is not within " +
+                         formatNumber(kMaxHeight) + " m of 0");
+            }
+        }
+    if (missing > 0 && noData == NoDataPolicy::Error)
+        fail(path, 0,
+             std::to_string(missing) + " NODATA cell" + (missing > 1 ? "s" : "") +
+                 " (the first at " + first +
+                 "): fill the DEM first, or set nodata = \"fill\" on the terrain");
+    if (missing > 0) h.fillNoData(path);
+    return h;
+}
+
+void Heightfield::fillNoData(const std::string& path) {
+    // Onion peeling, as gdal_fillnodata without smoothing: each pass gives every NODATA cell
+    // beside a valid one the mean of its valid 4-neighbours, so a hole fills from its rim in.
+    std::vector<std::size_t> holes;
+    for (std::size_t i = 0; i < mHeight.size(); ++i)
+        if (std::isnan(mHeight[i])) holes.push_back(i);
+    if (holes.size() == mHeight.size()) fail(path, 0, "every cell is NODATA");
+    mFilled = holes.size();
+    std::vector<std::pair<std::size_t, float>> filled;
+    while (!holes.empty()) {
+        filled.clear();
+        std::vector<std::size_t> left;
+        for (std::size_t i : holes) {
+            const int column = int(i % std::size_t(mColumns)), row = int(i / std::size_t(mColumns));
+            float sum = 0.f;
+            int count = 0;
+            const int offsets[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+            for (const auto& o : offsets) {
+                const int c = column + o[0], r = row + o[1];
+                if (c < 0 || r < 0 || c >= mColumns || r >= mRows) continue;
+                const float v = at(c, r);
+                if (!std::isnan(v)) sum += v, ++count;
+            }
+            if (count > 0) {
+                filled.emplace_back(i, sum / float(count));
+            } else {
+                left.push_back(i);
+            }
+        }
+        for (const auto& [i, v] : filled) mHeight[i] = v;
+        holes.swap(left);
+    }
+}
+
+Heightfield Heightfield::shiftedBy(double dx, double dz) const {
+    Heightfield h = *this;
+    h.mX0 -= dx;
+    h.mZ0 -= dz;
     return h;
 }
 

@@ -1,5 +1,6 @@
 // Terrain export (terrain_export.h): terrain.obj and the level set terrain.vdb. Both are written
 // through writeFileAtomic, the VDB from an in-memory archive, so they appear only complete.
+#include <firn/gis.h>
 #include <firn/io.h>
 #include <firn/terrain_export.h>
 
@@ -133,6 +134,13 @@ openvdb::FloatGrid::Ptr sampleLevelSet(const std::vector<Collider>& colliders,
 } // namespace
 
 TerrainExtent terrainExtent(const SceneDesc& scene) {
+    // A DEM is the ground the user drew: all of it (exportSpacing bounds the cells).
+    for (const TerrainDesc& t : scene.terrains)
+        if (t.shape == TerrainShape::Heightfield) {
+            const Georeference g = readDemGeoreference(t.file);
+            const double west = g.west - t.fileOrigin[0], south = g.south - t.fileOrigin[2];
+            return TerrainExtent{west, west + g.cell * g.columns, south, south + g.cell * g.rows};
+        }
     const bool is2d = scene.simulation.dimension == 2;
     const TerrainExtent box = bodiesBox(scene);
     const double size = std::max(box.x1 - box.x0, is2d ? 0.0 : box.z1 - box.z0);
@@ -171,7 +179,8 @@ float groundHeightAt(const std::vector<Collider>& colliders, float x, float z) {
 }
 
 void writeTerrainObj(const std::string& path, const std::vector<Collider>& colliders,
-                     const TerrainExtent& e, double spacing, const std::string& comment) {
+                     const TerrainExtent& e, double spacing, const std::string& comment,
+                     const Vec3d& origin) {
     const int nx = cellsAlong(e.x0, e.x1, spacing), nz = cellsAlong(e.z0, e.z1, spacing);
     const double sx = (e.x1 - e.x0) / nx, sz = (e.z1 - e.z0) / nz;
     std::string out = "# Firn terrain: ground height field, y up, metres\n";
@@ -188,7 +197,8 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
     for (int i = 0; i <= nx; ++i)
         for (int k = 0; k <= nz; ++k) {
             const double x = e.x0 + i * sx, z = e.z0 + k * sz;
-            appendf(out, "v %.9g %.9g %.9g\n", x, height(x, z), z);
+            appendf(out, "v %.12g %.12g %.12g\n", x + origin[0], height(x, z) + origin[1],
+                    z + origin[2]);
         }
     for (int i = 0; i <= nx; ++i)
         for (int k = 0; k <= nz; ++k) {
@@ -216,9 +226,15 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
 }
 
 void writeTerrainLevelSet(const std::string& path, const std::vector<Collider>& colliders,
-                          const TerrainExtent& extent, double voxelSize, double frameRate) {
+                          const TerrainExtent& extent, double voxelSize, double frameRate,
+                          const Vec3d& origin) {
     openvdb::initialize();
     const openvdb::FloatGrid::Ptr grid = sampleLevelSet(colliders, extent, voxelSize);
+    if (origin != Vec3d{0.0, 0.0, 0.0}) {
+        grid->transform().postTranslate(openvdb::Vec3d(origin[0], origin[1], origin[2]));
+        grid->insertMeta("firn_frame_origin",
+                         openvdb::Vec3DMetadata(openvdb::Vec3d(origin[0], origin[1], origin[2])));
+    }
     grid->setCreator("firn");
     grid->insertMeta("time", openvdb::DoubleMetadata(0.0));
     grid->insertMeta("frame", openvdb::Int32Metadata(0));
@@ -226,8 +242,9 @@ void writeTerrainLevelSet(const std::string& path, const std::vector<Collider>& 
     writeVdbFileAtomic(path, {grid});
 }
 
-void exportTerrain(const SceneDesc& scene, const std::vector<Collider>& colliders,
+void exportTerrain(const SceneDesc& sceneIn, const std::vector<Collider>& colliders,
                    const std::string& outDir) {
+    const SceneDesc scene = toLocalFrame(sceneIn); // the colliders' frame
     const std::string obj = outDir + "/terrain.obj", vdb = outDir + "/terrain.vdb";
     const TerrainExtent e = terrainExtent(scene);
     const float centre =
@@ -246,9 +263,10 @@ void exportTerrain(const SceneDesc& scene, const std::vector<Collider>& collider
     if (scene.simulation.dimension == 2)
         comment << "2D run: the x-y ground line extruded across z, width 0.2 x extent\n";
     const double dx = scene.grid.dx;
-    writeTerrainObj(obj, colliders, e, exportSpacing(e, dx, kMaxObjCells), comment.str());
+    writeTerrainObj(obj, colliders, e, exportSpacing(e, dx, kMaxObjCells), comment.str(),
+                    scene.frameOrigin);
     writeTerrainLevelSet(vdb, colliders, e, exportSpacing(e, dx, kMaxLevelSetColumns),
-                         scene.simulation.frameRate);
+                         scene.simulation.frameRate, scene.frameOrigin);
 }
 
 } // namespace firn

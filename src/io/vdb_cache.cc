@@ -242,7 +242,14 @@ VolumeGrids makeVolumeGrids(const VolumeFrame& volume, const std::vector<std::st
 
 // Files
 
+/// Frame metadata, and the local frame's origin added to the grid's transform: the grids are
+/// built in the simulation's frame, and read back in the scene's (a DEM's eastings, northings).
 void setFrameMetadata(openvdb::GridBase& grid, const FrameInfo& info) {
+    const openvdb::Vec3d origin(info.origin[0], info.origin[1], info.origin[2]);
+    if (origin != openvdb::Vec3d(0.0)) {
+        grid.transform().postTranslate(origin);
+        grid.insertMeta("firn_frame_origin", openvdb::Vec3DMetadata(origin));
+    }
     grid.insertMeta("time", openvdb::DoubleMetadata(info.time));
     grid.insertMeta("frame", openvdb::Int32Metadata(info.frame));
     grid.insertMeta("frame_rate", openvdb::DoubleMetadata(info.frameRate));

@@ -27,10 +27,16 @@ const Named<MaterialModel> kModels[] = {{"elastic", MaterialModel::Elastic},
 const Named<TerrainShape> kTerrainShapes[] = {{"plane", TerrainShape::Plane},
                                               {"profile", TerrainShape::Profile},
                                               {"heightfield", TerrainShape::Heightfield}};
-const Named<Boundary> kBoundaries[] = {
-    {"friction", Boundary::Friction}, {"slip", Boundary::Slip}, {"sticky", Boundary::Sticky}};
-const Named<BodyShape> kBodyShapes[] = {
-    {"box", BodyShape::Box}, {"sphere", BodyShape::Sphere}, {"layer", BodyShape::Layer}};
+const Named<Boundary> kBoundaries[] = {{"friction", Boundary::Friction},
+                                       {"slip", Boundary::Slip},
+                                       {"sticky", Boundary::Sticky},
+                                       {"voellmy", Boundary::Voellmy}};
+const Named<BodyShape> kBodyShapes[] = {{"box", BodyShape::Box},
+                                        {"sphere", BodyShape::Sphere},
+                                        {"layer", BodyShape::Layer},
+                                        {"polygon", BodyShape::Polygon}};
+const Named<NoDataPolicy> kNoDataPolicies[] = {{"error", NoDataPolicy::Error},
+                                               {"fill", NoDataPolicy::Fill}};
 const Named<ColorBy> kColorBy[] = {{"density", ColorBy::Density},
                                    {"speed", ColorBy::Speed},
                                    {"failed", ColorBy::Failed},
@@ -77,7 +83,8 @@ template <typename Shape> struct ShapeKey {
 const ShapeKey<TerrainShape> kTerrainShapeKeys[] = {{TerrainShape::Plane, "point"},
                                                     {TerrainShape::Plane, "normal"},
                                                     {TerrainShape::Profile, "points"},
-                                                    {TerrainShape::Heightfield, "file"}};
+                                                    {TerrainShape::Heightfield, "file"},
+                                                    {TerrainShape::Heightfield, "nodata"}};
 const ShapeKey<BodyShape> kBodyShapeKeys[] = {{BodyShape::Box, "min"},
                                               {BodyShape::Box, "max"},
                                               {BodyShape::Sphere, "center"},
@@ -86,14 +93,24 @@ const ShapeKey<BodyShape> kBodyShapeKeys[] = {{BodyShape::Box, "min"},
                                               {BodyShape::Layer, "thickness"},
                                               {BodyShape::Layer, "x_range"},
                                               {BodyShape::Layer, "z_range"},
-                                              {BodyShape::Layer, "thickness_noise"}};
+                                              {BodyShape::Layer, "thickness_noise"},
+                                              {BodyShape::Polygon, "on_top_of"},
+                                              {BodyShape::Polygon, "thickness"},
+                                              {BodyShape::Polygon, "thickness_noise"},
+                                              {BodyShape::Polygon, "file"},
+                                              {BodyShape::Polygon, "thickness_attribute"}};
 
 template <typename Shape, std::size_t N, std::size_t M>
 void rejectOtherShapeKeys(TableReader& r, Shape shape, const ShapeKey<Shape> (&keys)[N],
                           const Named<Shape> (&names)[M]) {
     const std::string why = std::string("shape \"") + nameOf(shape, names) + "\"";
+    auto ownKey = [&](const char* key) {
+        for (const auto& entry : keys)
+            if (entry.shape == shape && std::string(entry.key) == key) return true;
+        return false;
+    };
     for (const auto& entry : keys) {
-        if (entry.shape != shape) r.notApplicable(entry.key, why);
+        if (entry.shape != shape && !ownKey(entry.key)) r.notApplicable(entry.key, why);
     }
 }
 
@@ -288,17 +305,21 @@ std::string resolvePath(const std::string& folder, const std::string& file) {
     return (std::filesystem::path(folder) / path).string();
 }
 
+// A file key: the path resolved against the scene's folder, which must name a file.
+void readExistingFile(TableReader& r, std::string& file) {
+    r.string("file", file);
+    file = resolvePath(r.context().folder, file);
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(file, error)) r.failAt("file", "file not found: " + file);
+}
+
 void readHeightfield(TableReader& r, TerrainDesc& terrain) {
     r.require({"file"}, "shape \"heightfield\"");
     if (r.context().dimension != 3) {
         r.failAt("shape", "\"heightfield\" needs dimension = 3");
     }
-    r.string("file", terrain.file);
-    terrain.file = resolvePath(r.context().folder, terrain.file);
-    std::error_code error;
-    if (!std::filesystem::is_regular_file(terrain.file, error)) {
-        r.failAt("file", "file not found: " + terrain.file);
-    }
+    readExistingFile(r, terrain.file);
+    r.choice("nodata", terrain.noData, kNoDataPolicies);
 }
 
 TerrainDesc readTerrain(TableReader& r) {
@@ -314,7 +335,13 @@ TerrainDesc readTerrain(TableReader& r) {
     }
     rejectOtherShapeKeys(r, terrain.shape, kTerrainShapeKeys, kTerrainShapes);
     r.choice("boundary", terrain.boundary, kBoundaries);
-    if (terrain.boundary == Boundary::Friction) {
+    if (terrain.boundary == Boundary::Voellmy) {
+        r.real("turbulence", terrain.turbulence, Range::positive());
+    } else {
+        r.notApplicable("turbulence",
+                        "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries)));
+    }
+    if (terrain.boundary == Boundary::Friction || terrain.boundary == Boundary::Voellmy) {
         r.real("friction", terrain.friction, Range::nonNegative());
     } else {
         r.notApplicable("friction", "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries)));
@@ -349,7 +376,7 @@ void readSphere(TableReader& r, BodyDesc& body) {
 }
 
 bool isLayer(const BodyDesc& body) {
-    return body.shape == BodyShape::Layer && !body.name.empty();
+    return isLayerShape(body.shape) && !body.name.empty();
 }
 
 void readLayerSupport(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
@@ -359,6 +386,14 @@ void readLayerSupport(TableReader& r, BodyDesc& body, const std::vector<BodyDesc
     r.failReference("on_top_of", "on_top_of " + inQuotes(body.onTopOf) +
                                      " is neither \"ground\" nor an earlier layer body (layers: " +
                                      namesOrNone(layers) + ")");
+}
+
+void readThicknessNoise(TableReader& r, BodyDesc& body) {
+    if (auto noise = r.subTable("thickness_noise", r.keyName("thickness_noise") + ".")) {
+        noise->real("std", body.thicknessNoise.std, Range::nonNegative());
+        noise->real("correlation_length", body.thicknessNoise.correlationLength, Range::positive());
+        noise->finish();
+    }
 }
 
 void readLayer(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
@@ -373,11 +408,19 @@ void readLayer(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earl
         r.notApplicable("z_range", "a 2D scene");
     }
     readLayerSupport(r, body, earlier);
-    if (auto noise = r.subTable("thickness_noise", r.keyName("thickness_noise") + ".")) {
-        noise->real("std", body.thicknessNoise.std, Range::nonNegative());
-        noise->real("correlation_length", body.thicknessNoise.correlationLength, Range::positive());
-        noise->finish();
-    }
+    readThicknessNoise(r, body);
+}
+
+// Release areas from a vector file: a layer whose footprint is the file's polygons.
+void readPolygon(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
+    r.require({"file"}, "shape \"polygon\"");
+    if (r.context().dimension != 3) r.failAt("shape", "\"polygon\" needs dimension = 3");
+    readExistingFile(r, body.footprintFile);
+    r.real("thickness", body.thickness, Range::positive());
+    r.string("thickness_attribute", body.thicknessAttribute);
+    if (body.thicknessAttribute.empty()) r.failAt("thickness_attribute", "must not be empty");
+    readLayerSupport(r, body, earlier);
+    readThicknessNoise(r, body);
 }
 
 int resolveMaterial(TableReader& r, const std::string& name,
@@ -407,6 +450,7 @@ BodyDesc readBody(TableReader& r, const std::vector<MaterialDesc>& materials,
     if (body.shape == BodyShape::Box) readBox(r, body);
     if (body.shape == BodyShape::Sphere) readSphere(r, body);
     if (body.shape == BodyShape::Layer) readLayer(r, body, earlier);
+    if (body.shape == BodyShape::Polygon) readPolygon(r, body, earlier);
     rejectOtherShapeKeys(r, body.shape, kBodyShapeKeys, kBodyShapes);
     r.finish();
     return body;
@@ -418,7 +462,9 @@ CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
     r.require({"layer", "from_x", "length"});
     r.string("layer", cut.layer);
     std::string layers;
-    if (indexOfName(bodies, cut.layer, isLayer, layers) < 0) {
+    // A cut runs along x across a layer's x_range: polygon bodies have none.
+    auto isCuttable = [](const BodyDesc& b) { return b.shape == BodyShape::Layer && isLayer(b); };
+    if (indexOfName(bodies, cut.layer, isCuttable, layers) < 0) {
         r.failReference("layer", "layer " + inQuotes(cut.layer) +
                                      " is not a layer body (layers: " + namesOrNone(layers) + ")");
     }
@@ -442,12 +488,19 @@ CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
     return cut;
 }
 
-void readOutput(TableReader& r, OutputDesc& output) {
+void readOutput(TableReader& r, OutputDesc& output, const std::vector<TerrainDesc>& terrains) {
     r.string("directory", output.directory);
     r.boolean("particles", output.particles);
     r.stringList("volumes", output.volumes, {"density", "velocity", "failed", "eta"});
     r.integer("checkpoint_every_frames", output.checkpointEveryFrames, Range::nonNegative());
     r.real("checkpoint_every_minutes", output.checkpointEveryMinutes, Range::nonNegative());
+    const bool onDem = std::any_of(terrains.begin(), terrains.end(), [](const TerrainDesc& t) {
+        return t.shape == TerrainShape::Heightfield;
+    });
+    if (r.boolean("rasters", output.rasters) && output.rasters && !onDem)
+        r.failAt("rasters", "peak rasters are written on a DEM's grid: the scene has no "
+                            "heightfield terrain");
+    r.real("raster_cell", output.rasterCell, Range::positive());
     r.finish();
 }
 
@@ -501,7 +554,7 @@ SceneDesc readScene(const toml::table& root, const std::string& path) {
     });
     forEachEntry(r, "cut", false,
                  [&](TableReader& entry) { scene.cuts.push_back(readCut(entry, scene.bodies)); });
-    if (auto t = r.subTable("output", "output.")) readOutput(*t, scene.output);
+    if (auto t = r.subTable("output", "output.")) readOutput(*t, scene.output, scene.terrains);
     if (scene.output.directory.empty()) scene.output.directory = "out/" + scene.simulation.name;
     if (auto t = r.subTable("render", "render.")) readRender(*t, scene.render);
     r.finish();
@@ -518,6 +571,15 @@ void absoluteTerrainFiles(toml::table& root, const SceneDesc& desc) {
             terrain->insert_or_assign(
                 "file",
                 std::filesystem::absolute(desc.terrains[i].file).lexically_normal().string());
+        }
+    }
+    toml::array* bodies = root["body"].as_array();
+    for (std::size_t i = 0; bodies && i < bodies->size() && i < desc.bodies.size(); ++i) {
+        toml::table* body = (*bodies)[i].as_table();
+        if (body && body->contains("file")) {
+            body->insert_or_assign("file", std::filesystem::absolute(desc.bodies[i].footprintFile)
+                                               .lexically_normal()
+                                               .string());
         }
     }
 }

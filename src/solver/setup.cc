@@ -1,10 +1,12 @@
 // Scene -> world: materials, colliders and particle seeding from bodies.
+#include <firn/gis.h>
 #include <firn/solver.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
+#include <iomanip>
 #include <limits>
 #include <sstream>
 #include <string>
@@ -58,14 +60,21 @@ float standardNormal(std::uint64_t& state) {
 /// variance with correlation exp(-r^2 / (2 l^2)), built from random Fourier modes (Shinozuka and
 /// Deodatis 1991): f = sqrt(2/N) sum cos(k_i . (x, z) + phi_i), k_i ~ N(0, 1/l^2) per axis.
 /// Clamped at 5 % of t0 so that a layer never vanishes. Gaume et al. 2019 use ~25 % and 10 m.
+/// A polygon body's t0 is its release area's thickness at (x, z), 0 outside every area.
 struct ThicknessField {
     static constexpr int kModes = 64;
-    double t0 = 0.0, std = 0.0;
+    double t0 = 0.0, std = 0.0; ///< t0: the largest thickness of a polygon body's areas
     std::vector<std::array<double, 3>> modes; // kx, kz, phase
+    std::vector<ReleaseArea> areas;           // polygon bodies
 
     static ThicknessField of(const BodyDesc& body, std::uint64_t seed, std::size_t index, int dim) {
         ThicknessField f;
         f.t0 = body.thickness;
+        if (body.shape == BodyShape::Polygon) {
+            f.areas = readReleaseAreas(body);
+            f.t0 = 0.0;
+            for (const ReleaseArea& a : f.areas) f.t0 = std::max(f.t0, a.thickness);
+        }
         f.std = body.thicknessNoise.std;
         if (f.std <= 0.0) return f;
         std::uint64_t state = splitMix(seed * 0x51ed27ull + index + 0x1234567ull);
@@ -77,12 +86,20 @@ struct ThicknessField {
         }
         return f;
     }
+    /// The thickness without noise at (x, z).
+    double baseAt(double x, double z) const {
+        if (areas.empty()) return t0;
+        for (const ReleaseArea& a : areas)
+            if (a.contains(x, z)) return a.thickness;
+        return 0.0;
+    }
     double at(double x, double z) const {
-        if (modes.empty()) return t0;
+        const double base = baseAt(x, z);
+        if (modes.empty() || base == 0.0) return base;
         double sum = 0.0;
         for (const auto& m : modes) sum += std::cos(m[0] * x + m[1] * z + m[2]);
         const double f = std::sqrt(2.0 / kModes) * sum;
-        return t0 * std::max(0.05, 1.0 + std * f);
+        return base * std::max(0.05, 1.0 + std * f);
     }
 };
 
@@ -97,6 +114,25 @@ std::vector<std::size_t> layerChain(const SceneDesc& scene, std::size_t body) {
         chain.push_back(std::size_t(it - scene.bodies.begin()));
     }
     return chain;
+}
+
+/// Every vertex of a polygon body's release areas must lie over the terrain's extent.
+void checkAreasOnTerrain(const BodyDesc& body, const std::vector<ReleaseArea>& areas,
+                         const std::vector<Collider>& colliders) {
+    for (const ReleaseArea& a : areas)
+        for (const auto& ring : a.rings)
+            for (const auto& p : ring) {
+                bool covered = false;
+                for (const Collider& c : colliders) covered = covered || c.covers(p[0], p[1]);
+                if (covered) continue;
+                std::ostringstream where; // in the file's coordinates
+                where << std::setprecision(10) << "(" << p[0] + body.footprintOrigin[0] << ", "
+                      << p[1] + body.footprintOrigin[2] << ")";
+                throw SceneError(body.loc, "body: file",
+                                 body.footprintFile + ": release area " + a.label +
+                                     " reaches outside the DEM: its vertex at " + where.str() +
+                                     " has no terrain under it");
+            }
 }
 
 struct SeedRegion {
@@ -130,9 +166,19 @@ SeedRegion regionOf(const SceneDesc& scene, std::size_t bodyIndex,
         const std::vector<std::size_t> chain = layerChain(scene, bodyIndex);
         double maxStack = 0.0; // the thickest the stack can get, for the bounding box
         for (std::size_t b : chain) maxStack += fields[b].t0 * (1.0 + 5.0 * fields[b].std);
-        const float x0 = float(body.xRange[0]), x1 = float(body.xRange[1]);
-        const float z0 = dim == 3 ? float(body.zRange[0]) : 0.f;
-        const float z1 = dim == 3 ? float(body.zRange[1]) : 0.f;
+        float x0 = float(body.xRange[0]), x1 = float(body.xRange[1]);
+        float z0 = dim == 3 ? float(body.zRange[0]) : 0.f;
+        float z1 = dim == 3 ? float(body.zRange[1]) : 0.f;
+        if (body.shape == BodyShape::Polygon) {
+            const std::vector<ReleaseArea>& areas = fields[bodyIndex].areas;
+            checkAreasOnTerrain(body, areas, colliders);
+            x0 = z0 = std::numeric_limits<float>::max();
+            x1 = z1 = -x0;
+            for (const ReleaseArea& a : areas) {
+                x0 = std::min(x0, float(a.xMin)), x1 = std::max(x1, float(a.xMax));
+                z0 = std::min(z0, float(a.zMin)), z1 = std::max(z1, float(a.zMax));
+            }
+        }
         float hLo = std::numeric_limits<float>::max(), hHi = -hLo;
         const int nz = dim == 3 ? 32 : 0;
         for (int s = 0; s <= 256; ++s)
@@ -149,9 +195,10 @@ SeedRegion regionOf(const SceneDesc& scene, std::size_t bodyIndex,
             if (dim == 3 && (p[2] < z0 || p[2] >= z1)) return false;
             double base = 0.0; // the layers below, each with its thickness here
             for (std::size_t k = 1; k < chain.size(); ++k) base += fields[chain[k]].at(p[0], p[2]);
-            const double top = base + fields[chain[0]].at(p[0], p[2]);
+            const double own = fields[chain[0]].at(p[0], p[2]);
+            if (own <= 0.0) return false; // outside a polygon body's areas
             const double d = groundDistance(colliders, p);
-            return d >= base && d < top;
+            return d >= base && d < base + own;
         };
     }
     if (dim == 2) r.lo[2] = r.hi[2] = 0.f;
@@ -304,8 +351,7 @@ void markSlabMaterials(const SceneDesc& scene, std::vector<Material>& materials)
     for (const BodyDesc& b : scene.bodies) {
         Material& m = materials[std::size_t(b.materialIndex)];
         if (m.model != MaterialModel::Snow) continue;
-        if (!anyWeakLayer || (b.shape == BodyShape::Layer && isWeakLayerBody(b.onTopOf)))
-            m.slab = true;
+        if (!anyWeakLayer || (isLayerShape(b.shape) && isWeakLayerBody(b.onTopOf))) m.slab = true;
     }
 }
 
@@ -372,7 +418,8 @@ void seedBodies(const SceneDesc& scene, World& world) {
 
 } // namespace
 
-std::vector<double> estimateParticlesPerBody(const SceneDesc& scene) {
+std::vector<double> estimateParticlesPerBody(const SceneDesc& sceneIn) {
+    const SceneDesc scene = toLocalFrame(sceneIn);
     const int dim = scene.simulation.dimension;
     const double dx = scene.grid.dx;
     std::vector<Collider> colliders;
@@ -411,10 +458,12 @@ std::vector<double> estimateParticlesPerBody(const SceneDesc& scene) {
     return estimate;
 }
 
-std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage,
+std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
                                   const std::function<bool()>& interrupted) {
+    const SceneDesc scene = toLocalFrame(sceneIn); // a far-off DEM's snow next to 0
     auto world = std::make_unique<World>();
     World& w = *world;
+    w.origin = scene.frameOrigin;
     w.dim = scene.simulation.dimension;
     w.dx = float(scene.grid.dx);
     w.transfer = scene.grid.transfer;

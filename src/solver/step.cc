@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <unordered_map>
 
 namespace firn {
 
@@ -116,6 +117,48 @@ void updateGridVelocity(World& world, float dt) {
     });
 }
 
+void applyBasalDrag(World& world, float dt) {
+    const float g = world.gravity.norm();
+    const Collider* bed = nullptr;
+    for (const Collider& c : world.colliders)
+        if (c.turbulence() > 0.f) bed = &c;
+    if (!bed || g <= 0.f) return;
+    const float xi = bed->turbulence();
+    ParticleSet& ps = world.particles;
+    const float dx = world.dx;
+    const bool is3d = world.dim == 3;
+    // Columns of dx (x 2D; x, z 3D): the snow's volume over each, and whether it touches the bed.
+    struct Column {
+        double volume = 0.0;
+        bool onBed = false;
+    };
+    std::unordered_map<std::int64_t, Column> columns;
+    std::vector<std::int64_t> columnOf(ps.size());
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const std::int64_t ix = std::int64_t(std::floor(ps.x[i][0] / dx));
+        const std::int64_t iz = is3d ? std::int64_t(std::floor(ps.x[i][2] / dx)) : 0;
+        columnOf[i] = (ix << 32) ^ (iz & 0xffffffff);
+        Column& c = columns[columnOf[i]];
+        c.volume += ps.volume0[i];
+        c.onBed = c.onBed || bed->signedDistance(ps.x[i]) < dx;
+    }
+    const float area = is3d ? dx * dx : dx; // 2D: per metre of depth
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            if (ps.asleep(i)) continue;
+            const Column& c = columns.find(columnOf[i])->second;
+            if (!c.onBed) continue; // airborne snow feels no bed
+            const Vec3f n = bed->normal(ps.x[i]);
+            // Flow thickness normal to the bed: the column's vertical thickness times cos(slope).
+            const float h = float(c.volume / area) * std::max(n[1], 0.05f);
+            Vec3f& v = ps.v[i];
+            const Vec3f vt = v - v.dot(n) * n;
+            const float u = vt.norm();
+            v -= vt * (1.f - 1.f / (1.f + g * u * dt / (xi * h)));
+        }
+    });
+}
+
 void applyPlasticity(World& world, double stateTime) {
     ParticleSet& ps = world.particles;
     const int dim = world.dim;
@@ -164,6 +207,7 @@ void step(World& world, double dt, StepTimings* timings) {
         StageClock clock(timings ? &timings->g2p : nullptr);
         world.maxSpeed = gridToParticles(world.particles, world.grid, params);
     }
+    applyBasalDrag(world, dtf);
     {
         StageClock clock(timings ? &timings->sort : nullptr);
         world.particles.bucketByLeaf();

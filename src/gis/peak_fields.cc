@@ -1,0 +1,173 @@
+// Peak flow fields on a raster grid, and raster output through GDAL.
+#include "gdal_session.h"
+
+#include <firn/errors.h>
+#include <firn/io.h>
+#include <firn/peak_fields.h>
+
+#include <cpl_conv.h>
+#include <gdal.h>
+#include <ogr_srs_api.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+namespace firn {
+
+PeakFields::PeakFields(const Georeference& geo, const Vec3d& origin, const Heightfield& slope)
+    : mGeo(geo)
+    , mColumns(geo.columns)
+    , mRows(geo.rows)
+    , mWest(geo.west - origin[0])
+    , mSouth(geo.south - origin[2])
+    , mCell(geo.cell) {
+    const std::size_t cells = std::size_t(mColumns) * std::size_t(mRows);
+    mCosSlope.resize(cells);
+    for (int row = 0; row < mRows; ++row)
+        for (int column = 0; column < mColumns; ++column) {
+            float hx = 0.f, hz = 0.f;
+            slope.gradientAt(float(mWest + (column + 0.5) * mCell),
+                             float(mSouth + (row + 0.5) * mCell), hx, hz);
+            mCosSlope[index(column, row)] = 1.f / std::sqrt(1.f + hx * hx + hz * hz);
+        }
+    for (auto* v : {&mPeakThickness, &mPeakSpeed, &mPeakPressure, &mDeposit}) v->assign(cells, 0.f);
+    for (auto* v : {&mMass, &mVolume, &mMomentum}) v->assign(cells, 0.0);
+}
+
+void PeakFields::accumulate(const ParticleSet& ps) {
+    if (empty()) return;
+    const double inverseCell = 1.0 / mCell;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const Vec3f& x = ps.x[i];
+        const double u = (x[0] - mWest) * inverseCell, v = (x[2] - mSouth) * inverseCell;
+        if (!(u >= 0.0 && v >= 0.0 && u < mColumns && v < mRows)) continue; // off the grid
+        const std::size_t c = index(int(u), int(v));
+        if (mMass[c] == 0.0) mTouched.push_back(std::uint32_t(c));
+        mMass[c] += ps.mass[i];
+        mVolume[c] += ps.volume0[i];
+        mMomentum[c] += double(ps.mass[i]) * ps.v[i].norm();
+    }
+    const double area = mCell * mCell;
+    // The deposit is the last sample: cells the snow has left go back to 0.
+    std::fill(mDeposit.begin(), mDeposit.end(), 0.f);
+    for (std::uint32_t c : mTouched) {
+        const double thickness = mVolume[c] / area * mCosSlope[c];
+        const double speed = mMomentum[c] / mMass[c];
+        const double pressure = mMass[c] / mVolume[c] * speed * speed / 1000.0; // kPa
+        mPeakThickness[c] = std::max(mPeakThickness[c], float(thickness));
+        mPeakSpeed[c] = std::max(mPeakSpeed[c], float(speed));
+        mPeakPressure[c] = std::max(mPeakPressure[c], float(pressure));
+        mDeposit[c] = float(thickness);
+        mMass[c] = mVolume[c] = mMomentum[c] = 0.0;
+    }
+    mTouched.clear();
+    ++mSamples;
+}
+
+void PeakFields::write(const std::string& dir) const {
+    if (empty()) return;
+    makeDirectories(dir);
+    writeRaster(dir + "/pft", mGeo, mPeakThickness);
+    writeRaster(dir + "/pfv", mGeo, mPeakSpeed);
+    writeRaster(dir + "/ppr", mGeo, mPeakPressure);
+    writeRaster(dir + "/dft", mGeo, mDeposit);
+}
+
+void PeakFields::save(ByteWriter& out) const {
+    out.value(mSamples);
+    for (const auto* v : {&mPeakThickness, &mPeakSpeed, &mPeakPressure, &mDeposit}) out.array(*v);
+}
+
+void PeakFields::load(ByteReader& in) {
+    in.value(mSamples);
+    const std::size_t cells = mCosSlope.size();
+    for (auto* v : {&mPeakThickness, &mPeakSpeed, &mPeakPressure, &mDeposit}) {
+        in.array(*v);
+        if (v->size() != cells) throw ByteReadError("peak fields of another grid");
+    }
+}
+
+Georeference peakFieldGrid(const SceneDesc& scene) {
+    if (!scene.output.rasters) return {};
+    for (const TerrainDesc& t : scene.terrains) {
+        if (t.shape != TerrainShape::Heightfield) continue;
+        Georeference geo = readDemGeoreference(t.file);
+        const double cell = scene.output.rasterCell;
+        if (cell > 0.0 && cell != geo.cell) {
+            // The DEM's extent, in cells of the requested size (the last one may overhang).
+            geo.columns = std::max(1, int(std::ceil(geo.columns * geo.cell / cell - 1e-9)));
+            geo.rows = std::max(1, int(std::ceil(geo.rows * geo.cell / cell - 1e-9)));
+            geo.cell = cell;
+        }
+        return geo;
+    }
+    return {};
+}
+
+namespace {
+
+struct DatasetCloser {
+    void operator()(void* d) const { GDALClose(GDALDatasetH(d)); }
+};
+using Dataset = std::unique_ptr<void, DatasetCloser>;
+
+[[noreturn]] void rasterError(const std::string& path, const std::string& what) {
+    const std::string why = CPLGetLastErrorMsg();
+    throw IoError("cannot write " + path + ": " + what + (why.empty() ? "" : ": " + why));
+}
+
+/// Copies `source` to `path` with `driver`, through a temporary name in the same folder, so
+/// that a raster appears only complete (as every output).
+void copyAtomic(GDALDatasetH source, const char* driverName, const std::string& path) {
+    GDALDriverH driver = GDALGetDriverByName(driverName);
+    if (!driver) rasterError(path, std::string("GDAL has no ") + driverName + " driver");
+    const std::filesystem::path final(path);
+    const std::filesystem::path tmp =
+        final.parent_path() / (".tmp." + final.stem().string() + final.extension().string());
+    CPLErrorReset();
+    Dataset copy(
+        GDALCreateCopy(driver, tmp.string().c_str(), source, FALSE, nullptr, nullptr, nullptr));
+    if (!copy) rasterError(path, "GDAL could not create it");
+    copy.reset(); // closing flushes; a full disk shows here
+    if (CPLGetLastErrorType() >= CE_Failure) rasterError(path, "GDAL could not write it");
+    // The drivers may write side files next to it (.prj, .aux.xml): rename those as well.
+    std::error_code ec;
+    for (const char* side : {"", ".prj", ".aux.xml"}) {
+        std::filesystem::path from = tmp, to = final;
+        if (std::string(side) == ".prj")
+            from.replace_extension(".prj"), to.replace_extension(".prj");
+        else
+            from += side, to += side;
+        if (!std::filesystem::exists(from, ec)) continue;
+        std::filesystem::rename(from, to, ec);
+        if (ec) throw IoError("cannot rename " + from.string() + ": " + ec.message());
+    }
+}
+
+} // namespace
+
+void writeRaster(const std::string& path, const Georeference& geo,
+                 const std::vector<float>& values) {
+    gis::ensureGdal();
+    GDALDriverH mem = GDALGetDriverByName("MEM");
+    Dataset d(GDALCreate(mem, "", geo.columns, geo.rows, 1, GDT_Float32, nullptr));
+    if (!d) rasterError(path, "GDAL could not create the raster in memory");
+    // North-up: GDAL's first row is the north one.
+    double t[6] = {geo.west, geo.cell, 0.0, geo.south + geo.cell * geo.rows, 0.0, -geo.cell};
+    GDALSetGeoTransform(d.get(), t);
+    if (!geo.crsWkt.empty()) GDALSetProjection(d.get(), geo.crsWkt.c_str());
+    GDALRasterBandH band = GDALGetRasterBand(d.get(), 1);
+    for (int fileRow = 0; fileRow < geo.rows; ++fileRow) {
+        const float* row = values.data() + std::size_t(geo.rows - 1 - fileRow) * geo.columns;
+        if (GDALRasterIO(band, GF_Write, 0, fileRow, geo.columns, 1, const_cast<float*>(row),
+                         geo.columns, 1, GDT_Float32, 0, 0) != CE_None)
+            rasterError(path, "GDAL could not fill the raster");
+    }
+    copyAtomic(d.get(), "GTiff", path + ".tif");
+    copyAtomic(d.get(), "AAIGrid", path + ".asc");
+}
+
+} // namespace firn

@@ -1,0 +1,370 @@
+// GIS inputs: DEM rasters through GDAL, release areas from vector files, the local frame.
+#include "test_util.h"
+
+#include <firn/collider.h>
+#include <firn/gis.h>
+#include <firn/run.h>
+
+#include <catch2/catch.hpp>
+#include <cpl_conv.h>
+#include <gdal.h>
+#include <ogr_srs_api.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <string>
+#include <vector>
+
+using namespace firn;
+
+namespace {
+
+/// A GeoTIFF of `columns` x `rows` cells of `cell` m, north-west corner (west, north), heights
+/// height(x, y) at cell centres in the file's (easting, northing), CRS EPSG:2056 (Swiss LV95).
+template <typename Height>
+void writeGeoTiff(const std::string& path, int columns, int rows, double west, double north,
+                  double cell, Height height, double noData = std::nan("")) {
+    GDALAllRegister();
+    GDALDriverH driver = GDALGetDriverByName("GTiff");
+    REQUIRE(driver != nullptr);
+    GDALDatasetH d = GDALCreate(driver, path.c_str(), columns, rows, 1, GDT_Float32, nullptr);
+    REQUIRE(d != nullptr);
+    double t[6] = {west, cell, 0.0, north, 0.0, -cell};
+    GDALSetGeoTransform(d, t);
+    OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+    OSRImportFromEPSG(srs, 2056);
+    char* wkt = nullptr;
+    OSRExportToWkt(srs, &wkt);
+    GDALSetProjection(d, wkt);
+    CPLFree(wkt);
+    OSRDestroySpatialReference(srs);
+    GDALRasterBandH band = GDALGetRasterBand(d, 1);
+    if (!std::isnan(noData)) GDALSetRasterNoDataValue(band, noData);
+    std::vector<float> row(static_cast<std::size_t>(columns));
+    for (int r = 0; r < rows; ++r) {
+        for (int c = 0; c < columns; ++c)
+            row[std::size_t(c)] = float(height(west + (c + 0.5) * cell, north - (r + 0.5) * cell));
+        REQUIRE(GDALRasterIO(band, GF_Write, 0, r, columns, 1, row.data(), columns, 1, GDT_Float32,
+                             0, 0) == CE_None);
+    }
+    GDALClose(d);
+}
+
+/// A GeoJSON FeatureCollection of polygons (rings of (easting, northing)), each with a
+/// "thickness" attribute (omitted where NaN).
+std::string geoJson(const std::vector<std::vector<std::vector<std::array<double, 2>>>>& polygons,
+                    const std::vector<double>& thickness) {
+    std::string out = "{\"type\": \"FeatureCollection\", \"features\": [\n";
+    char number[64];
+    for (std::size_t f = 0; f < polygons.size(); ++f) {
+        out += std::string(f ? ",\n" : "") + "{\"type\": \"Feature\", \"properties\": {";
+        if (!std::isnan(thickness[f])) {
+            std::snprintf(number, sizeof number, "\"thickness\": %.17g", thickness[f]);
+            out += number;
+        }
+        out += "}, \"geometry\": {\"type\": \"Polygon\", \"coordinates\": [";
+        for (std::size_t r = 0; r < polygons[f].size(); ++r) {
+            out += r ? ", [" : "[";
+            for (std::size_t i = 0; i < polygons[f][r].size(); ++i) {
+                std::snprintf(number, sizeof number, "%s[%.17g, %.17g]", i ? ", " : "",
+                              polygons[f][r][i][0], polygons[f][r][i][1]);
+                out += number;
+            }
+            out += "]";
+        }
+        out += "]}}";
+    }
+    return out + "\n]}\n";
+}
+
+std::vector<std::array<double, 2>> square(double x0, double z0, double size) {
+    return {{x0, z0}, {x0 + size, z0}, {x0 + size, z0 + size}, {x0, z0 + size}, {x0, z0}};
+}
+
+} // namespace
+
+TEST_CASE("A GeoTIFF DEM is read with its georeference and CRS", "[gis]") {
+    test::TempDir dir("firn-gis-tif");
+    const std::string path = dir.path() + "/dem.tif";
+    // A plane rising 0.5 m per m to the north, 12 x 8 cells of 5 m, NW corner (2600000, 1200040).
+    writeGeoTiff(path, 12, 8, 2600000.0, 1200040.0, 5.0,
+                 [](double, double y) { return 1000.0 + 0.5 * (y - 1200000.0); });
+    const Dem dem = readDem(path, NoDataPolicy::Error);
+    CHECK(dem.geo.columns == 12);
+    CHECK(dem.geo.rows == 8);
+    CHECK(dem.geo.cell == 5.0);
+    CHECK(dem.geo.west == 2600000.0);
+    CHECK(dem.geo.south == 1200000.0);
+    CHECK(dem.geo.crsWkt.find("CH1903+") != std::string::npos);
+    // Heights at cell centres, rows from the south: the south-west cell's centre is 2.5 m north.
+    const Heightfield local = dem.heights.shiftedBy(2600000.0, 1200000.0);
+    CHECK(local.heightAt(2.5f, 2.5f) == Approx(1001.25).epsilon(1e-7));
+    CHECK(local.heightAt(30.f, 20.f) == Approx(1010.0).epsilon(1e-7));
+    float dhdx = 0.f, dhdz = 0.f;
+    local.gradientAt(30.f, 20.f, dhdx, dhdz);
+    CHECK(dhdx == Approx(0.0).margin(1e-6));
+    CHECK(dhdz == Approx(0.5).epsilon(1e-6));
+}
+
+TEST_CASE("DEM NODATA cells: an error that names them, or filled on request", "[gis]") {
+    test::TempDir dir("firn-gis-nodata");
+    const std::string path = dir.path() + "/holes.tif";
+    // Two NODATA cells: row 2 column 3 (the first, in reading order) and row 3 column 3.
+    writeGeoTiff(
+        path, 5, 4, 0.0, 20.0, 5.0,
+        [](double x, double y) {
+            const bool hole = x > 10.0 && x < 15.0 && y > 5.0 && y < 15.0;
+            return hole ? -9999.0 : 100.0 + x;
+        },
+        -9999.0);
+    REQUIRE_THROWS_WITH(readDem(path, NoDataPolicy::Error),
+                        path + ": error: heightfield: 2 NODATA cells (the first at row 2, column "
+                               "3): fill the DEM first, or set nodata = \"fill\" on the terrain");
+    const Dem filled = readDem(path, NoDataPolicy::Fill);
+    CHECK(filled.heights.filledCells() == 2);
+    // Each hole cell takes the mean of its valid 4-neighbours: west 107.5, east 117.5, and one
+    // of north/south; on a plane in x that is the plane's own 112.5.
+    CHECK(filled.heights.cell(2, 1) == Approx(112.5).epsilon(1e-6));
+    CHECK(filled.heights.cell(2, 2) == Approx(112.5).epsilon(1e-6));
+}
+
+TEST_CASE("A rotated or non-square DEM is refused with what to do", "[gis]") {
+    test::TempDir dir("firn-gis-rot");
+    const std::string path = dir.path() + "/rot.tif";
+    writeGeoTiff(path, 4, 4, 0.0, 20.0, 5.0, [](double, double) { return 1.0; });
+    GDALDatasetH d = GDALOpen(path.c_str(), GA_Update);
+    double t[6] = {0.0, 5.0, 1.0, 20.0, 0.0, -5.0};
+    GDALSetGeoTransform(d, t);
+    GDALClose(d);
+    REQUIRE_THROWS_WITH(readDem(path, NoDataPolicy::Error),
+                        Catch::Contains("is rotated") && Catch::Contains("gdalwarp"));
+    d = GDALOpen(path.c_str(), GA_Update);
+    double u[6] = {0.0, 5.0, 0.0, 20.0, 0.0, -4.0};
+    GDALSetGeoTransform(d, u);
+    GDALClose(d);
+    REQUIRE_THROWS_WITH(readDem(path, NoDataPolicy::Error),
+                        Catch::Contains("has cells of 5 x 4 m") && Catch::Contains("square"));
+    REQUIRE_THROWS_WITH(readDem(dir.path() + "/none.tif", NoDataPolicy::Error),
+                        Catch::Contains("GDAL cannot read it as a raster"));
+}
+
+TEST_CASE("Release areas come from a vector file with their thickness", "[gis]") {
+    test::TempDir dir("firn-gis-release");
+    const std::string path = dir.path() + "/release.geojson";
+    // A 10 m square with a 4 m hole (thickness 1.2), and a second square without an attribute.
+    std::ofstream(path) << geoJson(
+        {{square(100, 200, 10), square(103, 203, 4)}, {square(130, 200, 5)}}, {1.2, std::nan("")});
+    BodyDesc body;
+    body.shape = BodyShape::Polygon;
+    body.footprintFile = path;
+    body.thickness = 0.8; // the scene's thickness: every area
+    body.footprintOrigin = {100.0, 0.0, 200.0};
+    const std::vector<ReleaseArea> areas = readReleaseAreas(body);
+    REQUIRE(areas.size() == 2);
+    CHECK(areas[0].thickness == 0.8);
+    CHECK(areas[0].contains(1.0, 1.0));
+    CHECK_FALSE(areas[0].contains(5.0, 5.0)); // in the hole
+    CHECK_FALSE(areas[0].contains(11.0, 1.0));
+    CHECK(areas[1].contains(32.0, 2.0));
+    CHECK(areas[0].xMin == 0.0);
+    CHECK(areas[0].zMax == 10.0);
+    // From the attribute: the first has one, the second has none.
+    body.thickness = 0.0;
+    REQUIRE_THROWS_WITH(readReleaseAreas(body),
+                        Catch::Contains("feature 1 has no 'thickness' attribute"));
+    std::ofstream(path) << geoJson({{square(100, 200, 10)}, {square(130, 200, 5)}}, {1.2, 0.7});
+    const std::vector<ReleaseArea> fromAttribute = readReleaseAreas(body);
+    REQUIRE(fromAttribute.size() == 2);
+    CHECK(fromAttribute[0].thickness == 1.2);
+    CHECK(fromAttribute[1].thickness == 0.7);
+}
+
+namespace {
+
+/// A 3D scene on a plane DEM sloping 30 degrees down to the east (x), 60 x 30 m at 2 m cells,
+/// whose south-west corner is (east, north); a 1 m release polygon in it, granular with an
+/// internal friction (45 degrees) above the slope's, so that it slides as a block on Coulomb
+/// ground. Written to `dir`, returned as text.
+std::string slopeScene(const std::string& dir, double east, double north, double polygonWest) {
+    const double slope = std::tan(30.0 * M_PI / 180.0);
+    writeGeoTiff(dir + "/dem.tif", 30, 15, east, north + 30.0, 2.0,
+                 [east, slope](double x, double) { return 1500.0 - slope * (x - east); });
+    std::ofstream(dir + "/release.geojson")
+        << geoJson({{square(east + polygonWest, north + 10.0, 8.0)}}, {1.0});
+    return "[simulation]\nname = \"gis\"\ndimension = 3\nend_time = 0.2\nframe_rate = 10\n"
+           "[grid]\ndx = 0.5\nparticles_per_cell = 1\n"
+           "[[material]]\nname = \"sand\"\nmodel = \"granular\"\ndensity = 300\n"
+           "youngs_modulus = 1.0e6\nfriction_angle = 45\n"
+           "[[terrain]]\nshape = \"heightfield\"\nfile = \"dem.tif\"\nboundary = \"friction\"\n"
+           "friction = 0.4\n"
+           "[[body]]\nname = \"release\"\nmaterial = \"sand\"\nshape = \"polygon\"\n"
+           "file = \"release.geojson\"\n";
+}
+
+} // namespace
+
+TEST_CASE("A DEM 2 600 000 m east gives the same run as one at the origin", "[gis]") {
+    test::TempDir near("firn-gis-near"), far("firn-gis-far");
+    std::ofstream(near.path() + "/s.toml") << slopeScene(near.path(), 0.0, 0.0, 10.0);
+    std::ofstream(far.path() + "/s.toml") << slopeScene(far.path(), 2600000.0, 1200000.0, 10.0);
+    const SceneDesc a = loadScene(near.path() + "/s.toml");
+    const SceneDesc b = loadScene(far.path() + "/s.toml");
+    CHECK(localFrameOrigin(a) == Vec3d{0.0, 0.0, 0.0});
+    CHECK(localFrameOrigin(b) == Vec3d{2600000.0, 0.0, 1200000.0});
+    auto wa = buildWorld(a), wb = buildWorld(b);
+    CHECK(wb->origin == Vec3d{2600000.0, 0.0, 1200000.0});
+    REQUIRE(wa->particles.size() > 100);
+    // 8 x 8 m at 1 m normal thickness, 1 particle per 0.125 m^3: about 512 / cos(30).
+    CHECK(double(wa->particles.size()) == Approx(8.0 * 8.0 * 1.0 / 0.125).epsilon(0.15));
+    test::advanceTo(*wa, 0.2);
+    test::advanceTo(*wb, 0.2);
+    // The local frames coincide, so the runs are the same to the bit; float positions at
+    // 2.6e6 m would have resolved only 0.25 m.
+    REQUIRE(wa->particles.size() == wb->particles.size());
+    bool same = true;
+    for (std::size_t i = 0; i < wa->particles.size(); ++i)
+        same = same && wa->particles.x[i] == wb->particles.x[i];
+    CHECK(same);
+    // And it moved: down-slope (+x) by about a t^2 / 2 with a = g (sin 30 - 0.4 cos 30).
+    double meanX0 = 0.0, meanX = 0.0;
+    for (std::size_t i = 0; i < wa->particles.size(); ++i) meanX += wa->particles.x[i][0];
+    meanX /= double(wa->particles.size());
+    auto w0 = buildWorld(a);
+    for (std::size_t i = 0; i < w0->particles.size(); ++i) meanX0 += w0->particles.x[i][0];
+    meanX0 /= double(w0->particles.size());
+    const double expected = 0.5 * 9.81 * (0.5 - 0.4 * std::sqrt(0.75)) * 0.04;
+    CHECK(meanX - meanX0 > 0.5 * expected);
+}
+
+TEST_CASE("A release polygon outside the DEM is an error that says so", "[gis]") {
+    test::TempDir dir("firn-gis-outside");
+    std::ofstream(dir.path() + "/s.toml") << slopeScene(dir.path(), 0.0, 0.0, 55.0);
+    const SceneDesc scene = loadScene(dir.path() + "/s.toml");
+    REQUIRE_THROWS_WITH(buildWorld(scene, BuildStage::Seeded),
+                        Catch::Contains("release.geojson: release area feature 0 reaches outside "
+                                        "the DEM: its vertex at (63, 10) has no terrain under it"));
+}
+
+TEST_CASE("Peak rasters open in GDAL with the DEM's georeference and the known flow", "[gis]") {
+    test::TempDir dir("firn-gis-rasters");
+    std::ofstream(dir.path() + "/s.toml")
+        << slopeScene(dir.path(), 2600000.0, 1200000.0, 10.0)
+        << "[output]\nparticles = true\nvolumes = []\ncheckpoint_every_minutes = 0\n";
+    SceneDesc scene = loadScene(dir.path() + "/s.toml", {"simulation.end_time=0.5"});
+    RunOptions options;
+    options.outDir = dir.path() + "/out";
+    options.quiet = true;
+    REQUIRE(runScene(scene, options).status == "ok");
+
+    GDALAllRegister();
+    GDALDatasetH dem = GDALOpen((dir.path() + "/dem.tif").c_str(), GA_ReadOnly);
+    double demT[6];
+    GDALGetGeoTransform(dem, demT);
+    const std::string demCrs = GDALGetProjectionRef(dem);
+    GDALClose(dem);
+    // The release slides as a Coulomb block on 30 degrees, mu 0.4: u(0.5 s) = a t.
+    const double a = 9.81 * (0.5 - 0.4 * std::sqrt(0.75)), u = a * 0.5;
+    auto read = [&](const std::string& name) {
+        GDALDatasetH d = GDALOpen((dir.path() + "/out/rasters/" + name).c_str(), GA_ReadOnly);
+        REQUIRE(d != nullptr);
+        double t[6];
+        REQUIRE(GDALGetGeoTransform(d, t) == CE_None);
+        for (int k = 0; k < 6; ++k) CHECK(t[k] == Approx(demT[k]).margin(1e-6));
+        CHECK(GDALGetRasterXSize(d) == 30);
+        CHECK(GDALGetRasterYSize(d) == 15);
+        OGRSpatialReferenceH srs = OSRNewSpatialReference(GDALGetProjectionRef(d));
+        OGRSpatialReferenceH expected = OSRNewSpatialReference(demCrs.c_str());
+        CHECK(OSRIsSame(srs, expected));
+        OSRDestroySpatialReference(srs);
+        OSRDestroySpatialReference(expected);
+        std::vector<float> v(30 * 15);
+        REQUIRE(GDALRasterIO(GDALGetRasterBand(d, 1), GF_Read, 0, 0, 30, 15, v.data(), 30, 15,
+                             GDT_Float32, 0, 0) == CE_None);
+        GDALClose(d);
+        return v;
+    };
+    // Cell (column 7, row 7 from the north): east 14-16 m, north 14-16 m of the corner, inside
+    // the 8 x 8 m release (10-18 m) all run long.
+    const std::size_t inner = 7 * 30 + 7;
+    const std::vector<float> pft = read("pft.tif"), pfv = read("pfv.tif"), ppr = read("ppr.tif");
+    const std::vector<float> dft = read("dft.tif"), pftAsc = read("pft.asc");
+    // Thickness normal to the slope: 1 m released; the particles' sampling of a 2 m cell
+    // (0.5 m particle spacing, 4 x 4 columns) scatters it by a few percent.
+    CHECK(pft[inner] == Approx(1.0).epsilon(0.1));
+    CHECK(dft[inner] == Approx(1.0).epsilon(0.1));
+    // The block's speed at the end is the run's peak: u within 15 %. Measured at this dx: the
+    // mass's mean down-slope speed is 0.806 m/s (+7 %: the node-wise Coulomb bed at 0.5 m
+    // cells), and a cell's mean |v| adds the particles' velocity scatter (0.864 m/s, +15 %).
+    CHECK(pfv[inner] == Approx(u).epsilon(0.15));
+    // Pressure rho u^2 in kPa at the cell's own peak speed.
+    CHECK(ppr[inner] == Approx(300.0 * pfv[inner] * pfv[inner] / 1000.0).epsilon(0.02));
+    CHECK(pftAsc[inner] == Approx(pft[inner]).epsilon(1e-6));
+    // Snow never reached the far west corner (up-slope of the release).
+    CHECK(pft[14 * 30] == 0.f);
+    CHECK(std::filesystem::exists(dir.path() + "/out/rasters/pft.prj"));
+
+    // The caches and the summary are in the DEM's coordinates too.
+    std::ifstream summary(dir.path() + "/out/summary.json");
+    const std::string text((std::istreambuf_iterator<char>(summary)), {});
+    CHECK(text.find("\"runout_x\": 26000") != std::string::npos);
+    std::ifstream obj(dir.path() + "/out/terrain.obj");
+    std::string line;
+    while (std::getline(obj, line) && line.rfind("v ", 0) != 0) {
+    }
+    CHECK(line.rfind("v 2600000 ", 0) == 0);
+}
+
+TEST_CASE("GIS scene keys: polygon bodies, nodata and rasters are checked where they are read",
+          "[gis][scene]") {
+    test::TempDir dir("firn-gis-keys");
+    std::ofstream(dir.path() + "/s.toml") << slopeScene(dir.path(), 0.0, 0.0, 10.0);
+    const SceneDesc scene = loadScene(dir.path() + "/s.toml");
+    REQUIRE(scene.bodies.size() == 1);
+    CHECK(scene.bodies[0].shape == BodyShape::Polygon);
+    CHECK(scene.bodies[0].thickness == 0.0); // from the attribute
+    CHECK(scene.bodies[0].thicknessAttribute == "thickness");
+    CHECK(scene.terrains[0].noData == NoDataPolicy::Error);
+    CHECK(scene.output.rasters);
+    // The as-run scene names the release file absolutely, as it does the DEM.
+    CHECK(scene.resolvedToml.find(dir.path() + "/release.geojson") != std::string::npos);
+    const std::string path = dir.path() + "/s.toml";
+    std::string text = slopeScene(dir.path(), 0.0, 0.0, 10.0);
+    text.replace(text.find("friction = 0.4\n"), 15, "friction = 0.4\nnodata = \"zero\"\n");
+    std::ofstream(dir.path() + "/bad.toml") << text;
+    REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bad.toml"),
+                        Catch::Contains("terrain 1: nodata") && Catch::Contains("fill"));
+    // Voellmy's xi belongs to boundary "voellmy" only, and must be > 0.
+    text = slopeScene(dir.path(), 0.0, 0.0, 10.0);
+    text.replace(text.find("friction = 0.4\n"), 15, "friction = 0.4\nturbulence = 1000.0\n");
+    std::ofstream(dir.path() + "/bad.toml") << text;
+    REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bad.toml"),
+                        Catch::Contains("terrain 1: turbulence") &&
+                            Catch::Contains("boundary \"friction\""));
+    text.replace(text.find("\"friction\"\n"), 11, "\"voellmy\"\n");
+    std::ofstream(dir.path() + "/bad.toml") << text;
+    const SceneDesc voellmy = loadScene(dir.path() + "/bad.toml");
+    CHECK(voellmy.terrains[0].boundary == Boundary::Voellmy);
+    CHECK(voellmy.terrains[0].turbulence == 1000.0);
+    CHECK(voellmy.terrains[0].friction == 0.4);
+    REQUIRE_THROWS_WITH(loadScene(path, {"body.release.x_range=[0.0, 1.0]"}),
+                        Catch::Contains("x_range") && Catch::Contains("shape \"polygon\""));
+    REQUIRE_THROWS_WITH(loadScene(path, {"body.release.thickness=-1.0"}),
+                        Catch::Contains("body \"release\": thickness"));
+    const std::string plane =
+        "[simulation]\ndimension = 3\n[[material]]\nname = \"m\"\nmodel = \"granular\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0, 0, 0]\n"
+        "normal = [0, 1, 0]\n";
+    REQUIRE_THROWS_WITH(test::sceneFromText(plane + "[output]\nrasters = true\n"),
+                        Catch::Contains("output.rasters") &&
+                            Catch::Contains("the scene has no heightfield terrain"));
+    REQUIRE_THROWS_WITH(
+        test::sceneFromText("[simulation]\ndimension = 2\n[[material]]\nmodel = \"granular\"\n"
+                            "name = \"m\"\n[[body]]\nmaterial = \"m\"\n"
+                            "shape = \"polygon\"\nfile = \"" +
+                            dir.path() + "/release.geojson\"\n"),
+        Catch::Contains("\"polygon\" needs dimension = 3"));
+}
