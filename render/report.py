@@ -542,6 +542,87 @@ figcaption { font-size: 0.9em; color: #444; max-width: 60em; }
 """
 
 
+def read_ascii_grid(path):
+    """An ESRI ASCII grid: (values with rows from the north, west, south, cell size)."""
+    header = {}
+    try:
+        with open(path, encoding="utf-8") as f:
+            while True:
+                pos = f.tell()
+                words = f.readline().split()
+                if len(words) != 2 or not words[0][0].isalpha():
+                    f.seek(pos)
+                    break
+                header[words[0].lower()] = float(words[1])
+            values = np.loadtxt(f, ndmin=2)
+    except (OSError, ValueError) as e:
+        raise ReportError(f"cannot read {path}: {e}") from e
+    cell = header.get("cellsize", header.get("dx"))
+    if cell is None or "ncols" not in header:
+        raise ReportError(f"{path}: not an ESRI ASCII grid (no ncols/cellsize)")
+    west = header.get("xllcorner", header.get("xllcenter", 0.0) - 0.5 * cell)
+    south = header.get("yllcorner", header.get("yllcenter", 0.0) - 0.5 * cell)
+    if "nodata_value" in header:
+        values = np.where(values == header["nodata_value"], np.nan, values)
+    return values, west, south, cell
+
+
+def hillshade(elevation, cell, azimuth=315.0, altitude=45.0):
+    """Lambertian hillshade of a north-up grid (rows from the north), 0..1, light from the NW."""
+    dz_dy, dz_dx = np.gradient(elevation, cell)
+    dz_dy = -dz_dy  # rows run south: northing decreases down the array
+    slope = np.arctan(np.hypot(dz_dx, dz_dy))
+    aspect = np.arctan2(-dz_dx, dz_dy)
+    az, alt = math.radians(azimuth), math.radians(altitude)
+    shade = (math.sin(alt) * np.cos(slope) +
+             math.cos(alt) * np.sin(slope) * np.cos(az - aspect))
+    return np.clip(shade, 0.0, 1.0)
+
+
+HAZARD_MAPS = (("pft", "peak flow thickness", "m", "viridis"),
+               ("pfv", "peak flow speed", "m/s", "plasma"),
+               ("ppr", "peak pressure", "kPa", "inferno"))
+
+
+def hazard_maps(run, path):
+    """pft, pfv, ppr over a hillshade of the DEM, with the release's outline."""
+    rasters = run.out_dir / "rasters"
+    dem, west, south, cell = read_ascii_grid(rasters / "dem.asc")
+    release = read_ascii_grid(rasters / "release.asc")[0]
+    rows, cols = dem.shape
+    extent = (west, west + cols * cell, south, south + rows * cell)
+    shade = hillshade(dem, cell)
+    fig, axes = plt.subplots(len(HAZARD_MAPS), 1, figsize=(9, 3.0 * len(HAZARD_MAPS)),
+                             constrained_layout=True)
+    for ax, (name, label, unit, cmap) in zip(axes, HAZARD_MAPS):
+        values = read_ascii_grid(rasters / f"{name}.asc")[0]
+        ax.imshow(shade, cmap="gray", extent=extent, vmin=0.0, vmax=1.0)
+        shown = np.ma.masked_where(~(values > 0.0), values)
+        image = ax.imshow(shown, cmap=cmap, extent=extent, alpha=0.85, interpolation="nearest")
+        if (release > 0).any():
+            ax.contour(np.flipud(release > 0).astype(float), levels=[0.5], colors="white",
+                       linewidths=1.2, extent=extent, origin="lower")
+        ax.set_title(f"{name}: {label}, max {np.nanmax(values):.3g} {unit}")
+        ax.set_xlabel("easting (m)")
+        ax.set_ylabel("northing (m)")
+        ax.ticklabel_format(useOffset=False, style="plain")
+        fig.colorbar(image, ax=ax, label=unit, shrink=0.9)
+    return save(fig, path)
+
+
+def hazard_section(run, out, written):
+    if not (run.out_dir / "rasters" / "pft.asc").is_file():
+        return ["<p>No hazard maps: they are written on a DEM's grid, for scenes on a "
+                "<code>heightfield</code> terrain (<code>output.rasters</code>).</p>"]
+    written.append(hazard_maps(run, out / "hazard_maps.png"))
+    return [figure(written[-1], (
+        "Hazard maps (<code>rasters/</code>, AvaFrame's names) over a hillshade of the DEM, in "
+        "the DEM's coordinates; white: the release's outline. pft: peak flow thickness normal "
+        "to the terrain; pfv: peak of the cell's mass-weighted mean speed; ppr: peak pressure "
+        "ρu² in kPa. Transparent: cells the snow never reached. The same rasters open in QGIS "
+        "as GeoTIFF (<code>.tif</code>) or ESRI ASCII grid (<code>.asc</code>)."))]
+
+
 def render_section(run):
     """The renderer's contact sheet (`firn render`), when the run has been rendered."""
     render_dir = run.out_dir / "render"
@@ -662,6 +743,9 @@ def write_report(run, quiet):
         "point of the deposit along x (last frame), the two points that define the α-angle. "
         "Right: u<sub>m</sub> against the α-angle (summary.json <code>alpha_angle_deg</code>), "
         "with the 20–30° band that the paper finds for all its simulations.")))
+
+    sections.append("<h2>Hazard maps</h2>")
+    sections += hazard_section(run, out, written)
 
     rendered = render_section(run)
     if rendered:

@@ -13,7 +13,8 @@ namespace firn {
 
 /// The peaks of a run's flow fields on a raster grid, accumulated step by step.
 ///
-/// Per cell and sample: flow thickness h = sum of the particles' volumes / cell area x cos(slope)
+/// Per cell and sample, each particle spread over the four nearest cell centres with bilinear
+/// weights (cloud-in-cell): flow thickness h = the particles' volumes / cell area x cos(slope)
 /// (normal to the terrain; the volumes are the seeded ones, so h is snow at its release
 /// density); speed u = the mass-weighted mean particle speed; pressure = rho u^2 with rho the
 /// cell's mass over that volume, in kPa as AvaFrame writes it. The peaks are the largest of each
@@ -33,7 +34,9 @@ public:
     void accumulate(const ParticleSet& particles);
 
     /// Writes `dir/pft`, `pfv`, `ppr` and `dft` (deposit flow thickness), each as `.tif` and
-    /// `.asc`, on the grid and CRS of `geo`; cells snow never reached hold 0. Throws IoError.
+    /// `.asc`, on the grid and CRS of `geo`; cells snow never reached hold 0. Beside them, for
+    /// maps: `release` (the thickness of the first sample, the release) and `dem` (the terrain's
+    /// elevation at the cell centres, m). Throws IoError.
     void write(const std::string& dir) const;
 
     /// Peak values of cell (column, row), rows from the south.
@@ -53,7 +56,8 @@ private:
     int mColumns = 0, mRows = 0;
     double mWest = 0, mSouth = 0, mCell = 1; // in the local frame
     std::vector<float> mCosSlope;
-    std::vector<float> mPeakThickness, mPeakSpeed, mPeakPressure, mDeposit;
+    std::vector<float> mPeakThickness, mPeakSpeed, mPeakPressure, mDeposit, mRelease;
+    std::vector<float> mElevation;
     // One sample's sums, and the cells it touched (cleared after the sample).
     std::vector<double> mMass, mVolume, mMomentum;
     std::vector<std::uint32_t> mTouched;

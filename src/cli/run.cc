@@ -183,11 +183,6 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
     const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
-    if (k > 0) {
-        const double ex = d.centreOfMass[0] - s.last.centreOfMass[0];
-        const double ez = d.centreOfMass[2] - s.last.centreOfMass[2];
-        s.comPathLength += std::sqrt(ex * ex + ez * ez);
-    }
     if (d.movedTopY > s.releaseTopY || (std::isnan(s.releaseTopY) && !std::isnan(d.movedTopY)))
         s.releaseTopX = d.movedTopX, s.releaseTopY = d.movedTopY;
     const double nan = std::nan("");
@@ -487,6 +482,9 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                                  std::to_string(result.frames - 1);
                 break;
             }
+            const double ex = d.centreOfMass[0] - s.last.centreOfMass[0];
+            const double ez = d.centreOfMass[2] - s.last.centreOfMass[2];
+            s.comPathLength += std::sqrt(ex * ex + ez * ez);
             s.last = d;
             writeFrame(s, k, d, &watch);
             ++result.frames;

@@ -28,12 +28,13 @@ namespace {
 namespace fs = std::filesystem;
 using report::CachedFrame;
 
-/// The run's scene.toml without its [[terrain]] tables. The report needs the dimension, the
-/// grid and the materials only, and a heightfield's DEM file need not be where scene.toml says:
-/// a run folder copied to another machine, or one written before scene.toml held absolute
-/// paths, still gets its report. scene.toml is written by toml++, which puts arrays of tables
-/// last and [[terrain]] last of those, so the lines before it (and what error messages say about
-/// them) do not move.
+/// The run's scene.toml without its [[terrain]], [[body]] and [[cut]] tables (and
+/// output.rasters, which needs a terrain). The report needs the dimension, the grid and the
+/// materials only, and a heightfield's DEM or a polygon body's file need not be where
+/// scene.toml says: a run folder copied to another machine, or one written before scene.toml
+/// held absolute paths, still gets its report. scene.toml is written by toml++, which puts
+/// arrays of tables last, so the lines of the tables the report reads (and what error messages
+/// say about them) do not move.
 SceneDesc loadRunScene(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) {
@@ -52,6 +53,9 @@ SceneDesc loadRunScene(const std::string& path) {
                          std::string(e.description()));
     }
     root.erase("terrain");
+    root.erase("body");
+    root.erase("cut");
+    if (toml::table* output = root["output"].as_table()) output->erase("rasters");
     std::ostringstream withoutTerrain;
     withoutTerrain << root;
     return parseScene(withoutTerrain.str(), path);
