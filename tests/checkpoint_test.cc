@@ -81,7 +81,8 @@ const std::set<std::string> kWallKeys = {"wall_seconds",
                                          "settle_wall_seconds",
                                          "resumed_from_frame",
                                          "checkpoints_written",
-                                         "checkpoint_wall_seconds"};
+                                         "checkpoint_wall_seconds",
+                                         "raster_wall_seconds"};
 
 /// Every file a run leaves, but checkpoints and the captured output.
 std::vector<std::string> outputFiles(const std::string& dir) {

@@ -53,6 +53,9 @@ struct ReleaseArea {
 /// the feature: unreadable, no polygons, a feature without a thickness, a thickness <= 0.
 std::vector<ReleaseArea> readReleaseAreas(const BodyDesc& body);
 
+/// The name a WKT gives its reference system ("CH1903+ / LV95"), or the WKT's start.
+std::string crsName(const std::string& wkt);
+
 /// A scene coordinate this far from 0 or more (m) moves the simulation into a local frame: a
 /// float resolves 1e4 m to 1 mm, 1e6 m only to 6 cm.
 constexpr double kLocalFrameDistance = 1e4;

@@ -29,9 +29,17 @@ public:
 
     bool empty() const { return mColumns == 0; }
 
-    /// Adds one sample of the particles' state (run after a step). Serial, in particle order:
-    /// the same for any thread count.
+    /// Adds one sample of the particles' state. Serial, in particle order: the same for any
+    /// thread count.
     void accumulate(const ParticleSet& particles);
+
+    /// After a step of `dt` whose fastest particle moved at `maxSpeed`: samples once the
+    /// fastest snow can have crossed kSampleTravel of a cell since the last sample (every step
+    /// of a fast flow on a fine raster, rarely at rest). Returns whether it sampled.
+    bool afterStep(const ParticleSet& particles, double maxSpeed, double dt);
+
+    /// The travel between samples, in cells: peaks move at most a fifth of a cell unseen.
+    static constexpr double kSampleTravel = 0.2;
 
     /// Writes `dir/pft`, `pfv`, `ppr` and `dft` (deposit flow thickness), each as `.tif` and
     /// `.asc`, on the grid and CRS of `geo`; cells snow never reached hold 0. Beside them, for
@@ -60,8 +68,9 @@ private:
     std::vector<float> mElevation;
     // One sample's sums, and the cells it touched (cleared after the sample).
     std::vector<double> mMass, mVolume, mMomentum;
-    std::vector<std::uint32_t> mTouched;
+    std::vector<std::uint32_t> mTouched, mLastTouched;
     long long mSamples = 0;
+    double mTravel = 0.0; // m, the fastest snow's since the last sample
 
     std::size_t index(int column, int row) const {
         return std::size_t(row) * std::size_t(mColumns) + std::size_t(column);

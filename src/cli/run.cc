@@ -151,7 +151,8 @@ struct RunState {
     FrameDiagnostics first, last;
     /// Horizontal length of the centre of mass's path over the frames, m.
     double comPathLength = 0;
-    PeakFields peaks; ///< hazard maps on the DEM's grid (empty without a heightfield)
+    PeakFields peaks;       ///< hazard maps on the DEM's grid (empty without a heightfield)
+    double peakSeconds = 0; ///< wall time spent sampling them, this process
     Clock::time_point start = Clock::now();
     long long stepsAtStart = 0;   ///< a resumed run's step count at its checkpoint
     int checkpointsWritten = 0;   ///< by this process
@@ -325,6 +326,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
         s.peaks.write(r.outDir + "/rasters");
         j.set("rasters", r.outDir + "/rasters");
         j.set("raster_samples", s.peaks.samples());
+        j.set("raster_wall_seconds", s.peakSeconds);
     }
     const SettleReport& settle = w.settle;
     j.setBool("settle", settle.ran);
@@ -464,7 +466,11 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                 // The last step of a frame is shortened to land on the frame time exactly.
                 s.lastDt = std::min(stableTimeStep(*world), frameEnd - world->time);
                 step(*world, s.lastDt);
-                s.peaks.accumulate(world->particles);
+                if (!s.peaks.empty()) {
+                    const Clock::time_point t0 = Clock::now();
+                    s.peaks.afterStep(world->particles, world->maxSpeed, s.lastDt);
+                    s.peakSeconds += secondsSince(t0);
+                }
                 if (!std::isfinite(world->maxSpeed)) break;
             }
             removeOutflow(*world); // snow that left the domain (simulation.domain_min/max)
@@ -515,6 +521,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         throw IoError(result.message);
     }
     progress.done();
+    s.peaks.accumulate(world->particles); // the deposit is the final state
     result.steps = world->steps;
     result.particles = world->particles.size();
     result.wallSeconds = secondsSince(s.start);
@@ -535,6 +542,29 @@ std::string describeMaterial(const MaterialDesc& material) {
     return out.str();
 }
 
+/// The DEMs, the local frame and the rasters of a scene on real terrain; empty for the others.
+std::string describeTerrain(const SceneDesc& scene) {
+    std::ostringstream out;
+    out << std::setprecision(10);
+    for (std::size_t t = 0; t < scene.terrains.size(); ++t) {
+        const TerrainDesc& terrain = scene.terrains[t];
+        if (terrain.shape != TerrainShape::Heightfield) continue;
+        const Georeference g = readDemGeoreference(terrain.file);
+        out << "  terrain " << t + 1 << ": DEM " << terrain.file << ", " << g.columns << " x "
+            << g.rows << " cells of " << g.cell << " m from (" << g.west << ", " << g.south
+            << "), CRS " << (g.crsWkt.empty() ? "not given" : crsName(g.crsWkt)) << "\n";
+    }
+    const Vec3d origin = localFrameOrigin(scene);
+    if (origin != Vec3d{0.0, 0.0, 0.0})
+        out << "  local frame: simulated with its origin at (" << origin[0] << ", " << origin[1]
+            << ", " << origin[2] << "); outputs are written in the scene's coordinates\n";
+    const Georeference rasters = peakFieldGrid(scene);
+    if (rasters.columns > 0)
+        out << "  rasters: pft, pfv, ppr, dft on " << rasters.columns << " x " << rasters.rows
+            << " cells of " << rasters.cell << " m in " << scene.output.directory << "/rasters\n";
+    return out.str();
+}
+
 std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
     const MemoryEstimate memory = estimateMemory(scene, maxMemoryBytes);
     std::ostringstream out;
@@ -543,6 +573,7 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
         << scene.grid.particlesPerCell << " particles per cell, transfer "
         << toString(scene.grid.transfer) << "\n";
     for (const MaterialDesc& material : scene.materials) out << describeMaterial(material);
+    out << describeTerrain(scene);
     out << "  memory: about " << formatBytes(memory.bytes) << " for about "
         << std::llround(memory.particles) << " particles; "
         << (std::isinf(memory.availableBytes)

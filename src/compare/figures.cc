@@ -146,7 +146,12 @@ bool isInformational(const std::string& key) {
                                                "particle_steps_per_second",
                                                "peak_rss_bytes",
                                                "bytes_per_particle",
-                                               "settle_wall_seconds"};
+                                               "settle_wall_seconds",
+                                               "checkpoints_written",
+                                               "checkpoint_wall_seconds",
+                                               "resumed_from_frame",
+                                               "rasters",
+                                               "raster_wall_seconds"};
     const bool isMessage = key.size() >= 7 && key.compare(key.size() - 7, 7, "message") == 0;
     return keys.count(key) > 0 || isMessage;
 }

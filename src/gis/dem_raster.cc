@@ -62,10 +62,7 @@ Georeference georeferenceOf(GDALDatasetH dataset, const std::string& path) {
     return geo;
 }
 
-struct DatasetCloser {
-    void operator()(void* d) const { GDALClose(GDALDatasetH(d)); }
-};
-using Dataset = std::unique_ptr<void, DatasetCloser>;
+using gis::Dataset;
 
 Dataset openRaster(const std::string& path) {
     gis::ensureGdal();
@@ -107,6 +104,13 @@ std::vector<float> readHeights(GDALDatasetH dataset, const Georeference& geo,
 }
 
 } // namespace
+
+std::string crsName(const std::string& wkt) {
+    // WKT starts with the system's kind and its quoted name: PROJCS["CH1903+ / LV95", ...
+    const std::size_t open = wkt.find("[\""), close = wkt.find('"', open + 2);
+    if (open == std::string::npos || close == std::string::npos) return wkt.substr(0, 40);
+    return wkt.substr(open + 2, close - open - 2);
+}
 
 Georeference readDemGeoreference(const std::string& path) {
     const Dataset d = openRaster(path);

@@ -70,8 +70,10 @@ void PeakFields::accumulate(const ParticleSet& ps) {
         deposit(i0 + 1, j0 + 1, fu * fv, m, vol, mu);
     }
     const double area = mCell * mCell;
-    // The deposit is the last sample: cells the snow has left go back to 0.
-    std::fill(mDeposit.begin(), mDeposit.end(), 0.f);
+    // The deposit is the last sample: cells the snow has left go back to 0 (only those the
+    // previous sample touched: clearing the whole raster each step would cost more than the
+    // sampling itself for small releases on large DEMs).
+    for (std::uint32_t c : mLastTouched) mDeposit[c] = 0.f;
     for (std::uint32_t c : mTouched) {
         const double thickness = mVolume[c] / area * mCosSlope[c];
         const double speed = mMomentum[c] / mMass[c];
@@ -83,8 +85,18 @@ void PeakFields::accumulate(const ParticleSet& ps) {
         if (mSamples == 0) mRelease[c] = float(thickness);
         mMass[c] = mVolume[c] = mMomentum[c] = 0.0;
     }
+    mLastTouched.swap(mTouched);
     mTouched.clear();
     ++mSamples;
+}
+
+bool PeakFields::afterStep(const ParticleSet& particles, double maxSpeed, double dt) {
+    if (empty()) return false;
+    mTravel += maxSpeed * dt;
+    if (mTravel < kSampleTravel * mCell) return false;
+    accumulate(particles);
+    mTravel = 0.0;
+    return true;
 }
 
 void PeakFields::write(const std::string& dir) const {
@@ -100,17 +112,23 @@ void PeakFields::write(const std::string& dir) const {
 
 void PeakFields::save(ByteWriter& out) const {
     out.value(mSamples);
+    out.value(mTravel);
     for (const auto* v : {&mPeakThickness, &mPeakSpeed, &mPeakPressure, &mDeposit, &mRelease})
         out.array(*v);
 }
 
 void PeakFields::load(ByteReader& in) {
     in.value(mSamples);
+    in.value(mTravel);
     const std::size_t cells = mCosSlope.size();
     for (auto* v : {&mPeakThickness, &mPeakSpeed, &mPeakPressure, &mDeposit, &mRelease}) {
         in.array(*v);
         if (v->size() != cells) throw ByteReadError("peak fields of another grid");
     }
+    // The cells the last sample touched, which the next one clears from the deposit.
+    mLastTouched.clear();
+    for (std::size_t c = 0; c < cells; ++c)
+        if (mDeposit[c] != 0.f) mLastTouched.push_back(std::uint32_t(c));
 }
 
 Georeference peakFieldGrid(const SceneDesc& scene) {
@@ -132,10 +150,7 @@ Georeference peakFieldGrid(const SceneDesc& scene) {
 
 namespace {
 
-struct DatasetCloser {
-    void operator()(void* d) const { GDALClose(GDALDatasetH(d)); }
-};
-using Dataset = std::unique_ptr<void, DatasetCloser>;
+using gis::Dataset;
 
 [[noreturn]] void rasterError(const std::string& path, const std::string& what) {
     const std::string why = CPLGetLastErrorMsg();

@@ -20,9 +20,7 @@ namespace {
     throw SceneError(body.loc, "body: file", body.footprintFile + ": " + what);
 }
 
-struct DatasetCloser {
-    void operator()(void* d) const { GDALClose(GDALDatasetH(d)); }
-};
+using gis::Dataset;
 struct FeatureDeleter {
     void operator()(void* f) const { OGR_F_Destroy(OGRFeatureH(f)); }
 };
@@ -73,8 +71,8 @@ bool ReleaseArea::contains(double x, double z) const {
 std::vector<ReleaseArea> readReleaseAreas(const BodyDesc& body) {
     gis::ensureGdal();
     CPLErrorReset();
-    std::unique_ptr<void, DatasetCloser> dataset(GDALOpenEx(
-        body.footprintFile.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY, nullptr, nullptr, nullptr));
+    Dataset dataset(GDALOpenEx(body.footprintFile.c_str(), GDAL_OF_VECTOR | GDAL_OF_READONLY,
+                               nullptr, nullptr, nullptr));
     if (!dataset) {
         const std::string why = CPLGetLastErrorMsg();
         fail(body, "OGR cannot read it as a vector file" + (why.empty() ? "" : ": " + why));
