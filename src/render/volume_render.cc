@@ -194,6 +194,9 @@ struct FrameScene {
     const FloatGrid* terrain = nullptr;
     int dimension = 3;
     double dx = 0.05;
+    /// World position of voxel (0, 0, 0): 0, or the local frame's origin of a run on a far-off
+    /// DEM (the caches' transforms carry it; firn/gis.h).
+    Vec3d indexOrigin{0.0, 0.0, 0.0};
     openvdb::BBoxd volumeBox; // world bounds of the density, one voxel larger
     ColorBy colorBy = ColorBy::Speed;
     std::array<double, 2> range{0.0, 1.0};
@@ -248,7 +251,7 @@ private:
     std::optional<FloatGrid::ConstAccessor> mTerrainAcc;
     std::optional<openvdb::tools::LevelSetRayIntersector<FloatGrid>> mIntersector;
 
-    Vec3d toIndex(const Vec3d& world) const { return world / mScene.dx; }
+    Vec3d toIndex(const Vec3d& world) const { return (world - mScene.indexOrigin) / mScene.dx; }
 
     Rgb sampleColour(const Vec3d& ijk) {
         const auto& r = mScene.range;
@@ -366,7 +369,8 @@ private:
         for (int a = 0; a < 3; ++a) {
             const double d = ray.dir()[a];
             if (std::abs(d) < 1e-12) continue;
-            const double face = (d > 0 ? origin[a] + 8 : origin[a]) * mScene.dx;
+            const double face =
+                (d > 0 ? origin[a] + 8 : origin[a]) * mScene.dx + mScene.indexOrigin[a];
             exit = std::min(exit, (face - ray.eye()[a]) / d);
         }
         return exit;
@@ -637,6 +641,7 @@ RenderResult renderOutput(const std::string& outDir, const RenderOptions& option
                                            openvdb::tools::EXPAND_TILES);
         scene.grids = &grids;
         scene.occupied = &occupied;
+        scene.indexOrigin = grids.density->indexToWorld(openvdb::Vec3d(0.0, 0.0, 0.0));
         const openvdb::CoordBBox ib = grids.density->evalActiveVoxelBoundingBox();
         scene.volumeBox = openvdb::BBoxd(grids.density->indexToWorld(ib.min().asVec3d() - 1.0),
                                          grids.density->indexToWorld(ib.max().asVec3d() + 1.0));
