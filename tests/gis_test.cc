@@ -317,6 +317,15 @@ TEST_CASE("Peak rasters open in GDAL with the DEM's georeference and the known f
     CHECK(pft[14 * 30] == 0.f);
     CHECK(std::filesystem::exists(dir.path() + "/out/rasters/pft.prj"));
 
+    // firn report draws the maps over the DEM's hillshade.
+    const std::string report =
+        std::string(FIRN_BINARY) + " report " + dir.path() + "/out --quiet > /dev/null 2>&1";
+    CHECK(std::system(report.c_str()) == 0);
+    CHECK(std::filesystem::exists(dir.path() + "/out/report/hazard_maps.png"));
+    std::ifstream page(dir.path() + "/out/report/report.html");
+    const std::string html((std::istreambuf_iterator<char>(page)), {});
+    CHECK(html.find("hazard_maps.png") != std::string::npos);
+
     // The caches and the summary are in the DEM's coordinates too.
     std::ifstream summary(dir.path() + "/out/summary.json");
     const std::string summaryText((std::istreambuf_iterator<char>(summary)), {});
