@@ -369,6 +369,16 @@ TEST_CASE("GIS scene keys: polygon bodies, nodata and rasters are checked where 
     CHECK(voellmy.terrains[0].boundary == Boundary::Voellmy);
     CHECK(voellmy.terrains[0].turbulence == 1000.0);
     CHECK(voellmy.terrains[0].friction == 0.4);
+    // A named terrain can be calibrated from the command line.
+    text.replace(text.find("shape = \"heightfield\""), 21,
+                 "name = \"bed\"\nshape = \"heightfield\"");
+    std::ofstream(dir.path() + "/bed.toml") << text;
+    const SceneDesc calibrated = loadScene(
+        dir.path() + "/bed.toml", {"terrain.bed.friction=0.25", "terrain.bed.turbulence=3000.0"});
+    CHECK(calibrated.terrains[0].friction == 0.25);
+    CHECK(calibrated.terrains[0].turbulence == 3000.0);
+    REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bed.toml", {"terrain.bed.turbulence=-1.0"}),
+                        Catch::Contains("terrain \"bed\": turbulence"));
     REQUIRE_THROWS_WITH(loadScene(path, {"body.release.x_range=[0.0, 1.0]"}),
                         Catch::Contains("x_range") && Catch::Contains("shape \"polygon\""));
     REQUIRE_THROWS_WITH(loadScene(path, {"body.release.thickness=-1.0"}),

@@ -322,9 +322,17 @@ void readHeightfield(TableReader& r, TerrainDesc& terrain) {
     r.choice("nodata", terrain.noData, kNoDataPolicies);
 }
 
-TerrainDesc readTerrain(TableReader& r) {
+/// A terrain's optional name: what `--set terrain.<name>.friction=0.25` addresses.
+struct TerrainName {
+    std::string name;
+};
+
+TerrainDesc readTerrain(TableReader& r, std::vector<TerrainName>& names) {
     TerrainDesc terrain;
     terrain.loc = r.headerLoc();
+    TerrainName named;
+    if (r.string("name", named.name)) checkUniqueName(r, named.name, names, "terrain");
+    names.push_back(named);
     r.require({"shape"});
     r.choice("shape", terrain.shape, kTerrainShapes);
     if (terrain.shape == TerrainShape::Plane) readPlane(r, terrain);
@@ -547,8 +555,10 @@ SceneDesc readScene(const toml::table& root, const std::string& path) {
     forEachEntry(r, "material", true, [&](TableReader& entry) {
         scene.materials.push_back(readMaterial(entry, scene.materials));
     });
-    forEachEntry(r, "terrain", false,
-                 [&](TableReader& entry) { scene.terrains.push_back(readTerrain(entry)); });
+    std::vector<TerrainName> terrainNames;
+    forEachEntry(r, "terrain", true, [&](TableReader& entry) {
+        scene.terrains.push_back(readTerrain(entry, terrainNames));
+    });
     forEachEntry(r, "body", true, [&](TableReader& entry) {
         scene.bodies.push_back(readBody(entry, scene.materials, scene.bodies));
     });
