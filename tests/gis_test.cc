@@ -430,7 +430,8 @@ std::pair<double, double> pathRunout(double degrees) {
 
 } // namespace
 
-TEST_CASE("The same release on a DEM rotated by 25 degrees runs out as far (V11)", "[gis][path]") {
+TEST_CASE("The same release on a DEM rotated by 25 degrees runs out as far (V11)",
+          "[gis][path][slow]") {
     const auto straight = pathRunout(0.0), rotated = pathRunout(25.0);
     INFO("runout along the path: 99 % of the mass "
          << straight.first << " m (rotated " << rotated.first << " m), farthest " << straight.second

@@ -193,7 +193,7 @@ TEST_CASE("V11 dam break on 22 deg, delta 21 deg, phi 40 deg: the front follows 
     checkDamBreak(40, 0.1);
 }
 
-TEST_CASE("V11 dam break at dx 0.05", "[.][flow-fine]") {
+TEST_CASE("V11 dam break at dx 0.05", "[.][validation][flow-fine]") {
     checkDamBreak(30, 0.05);
     checkDamBreak(40, 0.05);
 }
@@ -251,7 +251,7 @@ TEST_CASE("V11 similarity solution: a parabolic cap on 35 deg, delta 25 deg, mov
     checkSimilarity(40, 0.25);
 }
 
-TEST_CASE("V11 similarity solution at dx 0.125", "[.][flow-fine]") {
+TEST_CASE("V11 similarity solution at dx 0.125", "[.][validation][flow-fine]") {
     checkSimilarity(40, 0.125);
 }
 
@@ -320,7 +320,7 @@ TEST_CASE("V11 energy line: a granular mass on a parabolic path stops with its c
     checkEnergyLine(0.1);
 }
 
-TEST_CASE("V11 energy line at dx 0.05", "[.][flow-fine]") {
+TEST_CASE("V11 energy line at dx 0.05", "[.][validation][flow-fine]") {
     checkEnergyLine(0.05);
 }
 
@@ -385,6 +385,6 @@ TEST_CASE("V11 a 2D cone of cohesionless material with flanks at its friction an
     checkCone(0.1);
 }
 
-TEST_CASE("V11 cone at dx 0.05 (fails: creeps 1.4-1.9 % of R)", "[.][flow-fine]") {
+TEST_CASE("V11 cone at dx 0.05 (fails: creeps 1.4-1.9 % of R)", "[.][validation][flow-fine]") {
     checkCone(0.05);
 }
