@@ -211,6 +211,19 @@ x_range = [1.0, 3.0]
         INFO("z = " << z);
         CHECK(zeroCrossing(*grid, 3.0, z, 1.5, 2.0) == Approx(1.75).margin(0.01 * 0.1));
     }
+
+    // A long path (scenes/path2d: a 30 m release on a 600 m profile): the whole profile, not
+    // 10 release sizes around the release (here 2 m: 20 m).
+    SceneDesc path = scene;
+    path.terrains[0].points = {{0.0, 40.0}, {40.0, 10.0}, {100.0, 0.0}};
+    path.simulation.endTime = 30.0;
+    const TerrainExtent whole = terrainExtent(path);
+    CHECK(whole.x0 == Approx(-10.0));
+    CHECK(whole.x1 == Approx(110.0));
+    // ... as far as a free fall could reach: 0.3 s reach 0.44 m.
+    path.simulation.endTime = 0.3;
+    const double fall = 0.5 * 9.81 * 0.3 * 0.3;
+    CHECK(terrainExtent(path).x1 == Approx(3.0 + fall));
 }
 
 TEST_CASE("terrain extent: the reach of a free fall around the bodies, coarser when large",

@@ -144,7 +144,7 @@ TerrainExtent terrainExtent(const SceneDesc& scene) {
     const bool is2d = scene.simulation.dimension == 2;
     const TerrainExtent box = bodiesBox(scene);
     const double size = std::max(box.x1 - box.x0, is2d ? 0.0 : box.z1 - box.z0);
-    const double reach = std::min(freeFallReach(scene), kMaxReachSizes * size);
+    const double fall = freeFallReach(scene), reach = std::min(fall, kMaxReachSizes * size);
     TerrainExtent e{box.x0 - reach, box.x1 + reach, box.z0 - reach, box.z1 + reach};
 
     double px0 = std::numeric_limits<double>::infinity(), px1 = -px0;
@@ -152,9 +152,12 @@ TerrainExtent terrainExtent(const SceneDesc& scene) {
         if (t.shape == TerrainShape::Profile && !t.points.empty())
             px0 = std::min(px0, t.points.front()[0]), px1 = std::max(px1, t.points.back()[0]);
     if (px0 < px1) {
+        // Along x a profile is the path the user drew, as a DEM is: all of it (plus a margin) that
+        // a free fall could reach, without the cap in release sizes, which stopped scenes/path2d's
+        // ground 160 m short of its deposit.
         const double margin = kProfileMargin * (px1 - px0);
-        e.x0 = std::min(box.x0, std::max(e.x0, px0 - margin));
-        e.x1 = std::max(box.x1, std::min(e.x1, px1 + margin));
+        e.x0 = std::min(box.x0, std::max(box.x0 - fall, px0 - margin));
+        e.x1 = std::max(box.x1, std::min(box.x1 + fall, px1 + margin));
     }
     if (is2d) {
         const double w = kWidth2d * (e.x1 - e.x0);
