@@ -158,3 +158,37 @@ TEST_CASE("runout and alpha angle measure the snow that moved, not a base that n
     CHECK(alphaAngleDeg(0.0, 1.0, 1.0, 0.0) == Approx(45.0));
     CHECK(std::isnan(alphaAngleDeg(2.0, 1.0, 1.0, 0.0)));
 }
+
+TEST_CASE("crack tracker: the end that propagated leads, not one carried by flowing snow",
+          "[diagnostics]") {
+    CrackTracker crack;
+    // The trigger's crack at x = 12-13 m runs up-slope at 100 m/s to x = 5 m and down to 17 m
+    // at 80 m/s, over frames 0.02 s apart ...
+    crack.update(crackFrame(12.0, 13.0), 0.20);
+    crack.update(crackFrame(10.0, 14.6), 0.22);
+    crack.update(crackFrame(8.0, 16.2), 0.24);
+    crack.update(crackFrame(6.0, 17.0), 0.26);
+    crack.update(crackFrame(5.0, 17.0), 0.28);
+    CHECK(crack.direction() == -1);
+    // ... then the released slab flows down-slope at 5 m/s for 2 s, carrying failed weak layer
+    // with it: the down-slope end grows 10 m more (14 m in all, against the up-slope end's 7 m),
+    // but slower than a crack runs.
+    double t = 0.28;
+    for (int k = 1; k <= 100; ++k) crack.update(crackFrame(5.0, 17.0 + 0.1 * k), t += 0.02);
+    CHECK(crack.direction() == -1);
+    CHECK(crack.tip() == Approx(5.0));
+    // Up-slope travel 7 m: 10 % (11.3 m) passed at 0.207 s, 90 % (5.7 m) at 0.266 s.
+    CHECK(crack.meanSpeed() == Approx(0.8 * 7.0 / (0.266 - 0.207)).epsilon(1e-9));
+}
+
+TEST_CASE("crack tracker: a mean speed from a crack that crossed the column in two frames",
+          "[diagnostics]") {
+    CrackTracker crack;
+    crack.update(crackFrame(2.9, 3.0), 0.0);
+    crack.update(crackFrame(1.4, 3.0), 0.02); // 75 m/s
+    crack.update(crackFrame(0.0, 3.0), 0.04); // 70 m/s
+    crack.update(crackFrame(0.0, 3.0), 0.06);
+    // travel 2.9 m: 10 % at 0.02 * 0.29 / 1.5, 90 % at 0.02 + 0.02 * (2.61 - 1.5) / 1.4
+    const double t10 = 0.02 * 0.29 / 1.5, t90 = 0.02 + 0.02 * 1.11 / 1.4;
+    CHECK(crack.meanSpeed() == Approx(0.8 * 2.9 / (t90 - t10)).epsilon(1e-9));
+}

@@ -18,7 +18,7 @@
 namespace firn {
 
 /// Bump when the payload's layout changes; older files are then refused with a message.
-constexpr std::uint32_t kCheckpointFormat = 2; // 2: peak fields and the COM path
+constexpr std::uint32_t kCheckpointFormat = 3; // 2: peak fields and the COM path; 3: crack ends
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

@@ -16,8 +16,11 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
     if (newCrack) {
         mMinX0 = std::nan("");
         mMaxSpeed = 0.0;
-        mHistory.clear();
+        mUpPropagated = mDownPropagated = 0.0;
+        mHistory.clear(), mUpHistory.clear(), mDownHistory.clear();
     }
+    mUpHistory.push_back({time, d.crackMinX});
+    mDownHistory.push_back({time, d.crackMaxX});
     if (std::isnan(mMinX0)) {
         mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
         mTime = time;
@@ -26,8 +29,14 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
         mHistory.push_back({time, mTip});
         return;
     }
-    const bool upSlope = mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
-    const double advance = upSlope ? mMinX - d.crackMinX : d.crackMaxX - mMaxX;
+    const double upAdvance = mMinX - d.crackMinX, downAdvance = d.crackMaxX - mMaxX;
+    const double fast = kMinCrackSpeed * (time - mTime);
+    if (upAdvance >= fast) mUpPropagated += upAdvance;
+    if (downAdvance >= fast) mDownPropagated += downAdvance;
+    const bool upSlope = mUpPropagated != mDownPropagated
+                             ? mUpPropagated > mDownPropagated
+                             : mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
+    const double advance = upSlope ? upAdvance : downAdvance;
     mTip = upSlope ? d.crackMinX : d.crackMaxX;
     mDirection = upSlope ? -1 : 1;
     mSpeed = std::max(0.0, advance) / (time - mTime);
@@ -52,17 +61,28 @@ double CrackTracker::tipAt(double time) const {
 }
 
 double CrackTracker::meanSpeed() const {
-    if (mHistory.size() < 3) return 0.0;
-    const double x0 = mHistory.front().second, x1 = mHistory.back().second;
-    const double lo = std::min(x0, x1) + 0.1 * std::abs(x1 - x0);
-    const double hi = std::max(x0, x1) - 0.1 * std::abs(x1 - x0);
-    double n = 0, st = 0, sx = 0, stt = 0, stx = 0;
-    for (const auto& [t, x] : mHistory) {
-        if (x < lo || x > hi) continue;
-        n += 1, st += t, sx += x, stt += t * t, stx += t * x;
-    }
-    const double det = n * stt - st * st;
-    return n >= 3 && det > 0 ? std::abs((n * stx - st * sx) / det) : 0.0;
+    const auto& history = mDirection < 0 ? mUpHistory : mDownHistory;
+    if (history.size() < 2) return 0.0;
+    // Distance along the direction of travel from the start; the farthest reached is the travel.
+    const double sign = mDirection < 0 ? -1.0 : 1.0, x0 = history.front().second;
+    double travel = 0.0;
+    for (const auto& entry : history) travel = std::max(travel, sign * (entry.second - x0));
+    if (!(travel > 0.0)) return 0.0;
+    // The first time the end passed `fraction` of the travel, interpolated between frames.
+    auto passed = [&](double fraction) {
+        const double target = fraction * travel;
+        for (std::size_t k = 1; k < history.size(); ++k) {
+            const double a = sign * (history[k - 1].second - x0),
+                         b = sign * (history[k].second - x0);
+            if (b >= target && a < target) {
+                const double t0 = history[k - 1].first, t1 = history[k].first;
+                return t0 + (t1 - t0) * (target - a) / (b - a);
+            }
+        }
+        return history.front().first;
+    };
+    const double t10 = passed(0.1), t90 = passed(0.9);
+    return t90 > t10 ? 0.8 * travel / (t90 - t10) : 0.0;
 }
 
 StabilityWatch::StabilityWatch(const FrameDiagnostics& first, const World& world)
@@ -97,14 +117,16 @@ double alphaAngleDeg(double topX, double topY, double farX, double farY) {
 void CrackTracker::save(ByteWriter& out) const {
     for (double v : {mMinX0, mMaxX0, mMinX, mMaxX, mTime, mTip, mSpeed, mMaxSpeed}) out.value(v);
     out.value(mDirection);
-    out.array(mHistory);
+    out.value(mUpPropagated), out.value(mDownPropagated);
+    out.array(mHistory), out.array(mUpHistory), out.array(mDownHistory);
 }
 
 void CrackTracker::load(ByteReader& in) {
     for (double* v : {&mMinX0, &mMaxX0, &mMinX, &mMaxX, &mTime, &mTip, &mSpeed, &mMaxSpeed})
         in.value(*v);
     in.value(mDirection);
-    in.array(mHistory);
+    in.value(mUpPropagated), in.value(mDownPropagated);
+    in.array(mHistory), in.array(mUpHistory), in.array(mDownHistory);
 }
 
 void StabilityWatch::save(ByteWriter& out) const {
