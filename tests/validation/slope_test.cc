@@ -60,6 +60,20 @@ std::vector<std::map<std::string, double>> readMetrics(const std::string& path) 
     return rows;
 }
 
+struct RunFiles {
+    std::string summary;                             // summary.json
+    std::vector<std::map<std::string, double>> rows; // metrics.csv
+};
+
+/// Runs a scene quietly into `dir`; it must end "ok". Returns what it wrote.
+RunFiles runQuietly(const SceneDesc& scene, const std::string& dir) {
+    RunOptions options;
+    options.quiet = true;
+    options.outDir = dir;
+    REQUIRE(runScene(scene, options).status == "ok");
+    return {readText(dir + "/summary.json"), readMetrics(dir + "/metrics.csv")};
+}
+
 } // namespace
 
 TEST_CASE("V9 slope: a dropped block triggers a crack that runs up-slope to the top, and the "
@@ -70,12 +84,7 @@ TEST_CASE("V9 slope: a dropped block triggers a crack that runs up-slope to the 
         loadScene(kSlope, {"simulation.end_time=0.6", "body.base.x_range=[4.5, 19.0]",
                            "body.weak.x_range=[5.0, 17.0]", "body.slab.x_range=[5.0, 17.0]",
                            "output.particles=false", "output.volumes=[]"});
-    RunOptions options;
-    options.quiet = true;
-    options.outDir = dir.path();
-    REQUIRE(runScene(scene, options).status == "ok");
-    const std::string summary = readText(dir.path() + "/summary.json");
-    const auto rows = readMetrics(dir.path() + "/metrics.csv");
+    const auto [summary, rows] = runQuietly(scene, dir.path());
     REQUIRE(rows.size() > 20);
 
     // The slope holds until the block lands (t ~ 0.2 s): whatever yields under the static load
@@ -164,12 +173,7 @@ TEST_CASE("V9 long path: a snow volume released on the 480 m path flows at ~27 m
     test::TempDir dir("firn-path2d");
     const SceneDesc scene = loadScene(
         kPath, {"grid.dx=1.0", "grid.max_dt=0.003", "output.particles=false", "output.volumes=[]"});
-    RunOptions options;
-    options.quiet = true;
-    options.outDir = dir.path();
-    REQUIRE(runScene(scene, options).status == "ok");
-    const std::string summary = readText(dir.path() + "/summary.json");
-    const auto rows = readMetrics(dir.path() + "/metrics.csv");
+    const auto [summary, rows] = runQuietly(scene, dir.path());
 
     // Gaume et al. 2019 (sec. 3.2, Fig. 6 right): maximum speed 27 m/s. The paper's profile is not
     // given; on this one a Coulomb point (mu 0.4) from the release's top would peak at 27.7 m/s.
