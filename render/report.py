@@ -26,6 +26,8 @@ matplotlib.use("Agg")  # no display: files only
 import matplotlib.pyplot as plt  # noqa: E402  (after the backend is chosen)
 import matplotlib.ticker  # noqa: E402
 
+import flow_speed  # noqa: E402  (render/flow_speed.py, beside this script)
+
 DPI = 120
 # One colour map per quantity, the same in every chart. Fig. A1 shows failed weak layer white
 # on black elastic, p from black to yellow and slab speed from white to red.
@@ -39,6 +41,8 @@ NO_LAYER = "#c9d6e3"
 MG_COEFFICIENT = 1.5
 SLAB_FRACTURE_COLOUR = "0.6"  # grey, as the bars of Fig. 3 bottom
 ALPHA_BAND = (20.0, 30.0)
+# The flow speed is read from at most this many volume caches, evenly spread (python per voxel).
+FLOW_SPEED_FRAMES = 60
 
 
 class ReportError(Exception):
@@ -103,6 +107,29 @@ class Run:
         if name not in self.metrics:
             raise ReportError(f"{self.out_dir / 'metrics.csv'}: no column '{name}'")
         return self.metrics[name]
+
+    def flow_speed(self):
+        """(times, largest grid speed in the snow) from the volume caches (render/flow_speed.py),
+        or None when the run wrote no density and velocity volumes."""
+        if not hasattr(self, "_flow"):
+            self._flow = None
+            files = flow_speed.volume_files(self.out_dir, at_most=FLOW_SPEED_FRAMES)
+            try:
+                frames = [flow_speed.frame_speeds(f) for f in files]
+            except KeyError:
+                frames = []
+            if frames:
+                self._flow = (np.array([t for t, _ in frames]),
+                              np.array([v.max() if v.size else 0.0 for _, v in frames]))
+        return self._flow
+
+    def max_flow_speed(self):
+        """u_m for the charts: the largest grid speed in the snow when the volumes hold it, else
+        summary.json max_speed (the fastest particle); and which one it is."""
+        flow = self.flow_speed()
+        if flow is not None:
+            return float(flow[1].max()), "grid flow speed"
+        return self.summary.get("max_speed"), "fastest particle"
 
     @property
     def has_weak_layer(self):
@@ -443,10 +470,15 @@ def slab_fracture_table(run):
 def flow_chart(run, path):
     t = run.column("time")
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2), constrained_layout=True)
-    a.plot(t, run.column("max_speed"), color="#d62728")
+    flow = run.flow_speed()
+    if flow is not None:
+        a.plot(flow[0], flow[1], color="#d62728", label="grid flow speed (volume caches)")
+    a.plot(t, run.column("max_speed"), color="#d62728" if flow is None else "0.6",
+           lw=1.5 if flow is None else 1.0, label="fastest particle (metrics.csv max_speed)")
     a.set_xlabel("time (s)")
-    a.set_ylabel("maximum particle speed (m/s)")
+    a.set_ylabel("speed (m/s)")
     a.set_title("maximum flow speed")
+    a.legend(fontsize=8, loc="upper right")
     a.grid(alpha=0.3)
     b.plot(t, run.column("kinetic_energy") / 1000.0, color="#1f77b4")
     b.set_xlabel("time (s)")
@@ -458,7 +490,7 @@ def flow_chart(run, path):
 
 def mcclung_gauer_chart(run, path):
     """Fig. 7: u_m against sqrt(L) with the fit u_m = 1.5 sqrt(L); u_m against alpha."""
-    u_m = run.summary.get("max_speed")
+    u_m, _ = run.max_flow_speed()
     alpha = run.summary.get("alpha_angle_deg")
     length = run.path_length()
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.4), constrained_layout=True)
@@ -514,6 +546,9 @@ def summary_table(run):
         if (key.startswith("mass_") or key.endswith("_block_mass")) and run.dimension == 2:
             unit = "kg/m"
         rows.append((key, format_value(value), unit))
+    u_m, source = run.max_flow_speed()
+    if u_m is not None:
+        rows.append((f"u_m, {source} (report)", f"{u_m:.6g}", "m/s"))
     length = run.path_length()
     if length is not None:
         rows.append(("path length L (report)", f"{length:.6g}", "m"))
@@ -729,14 +764,19 @@ def write_report(run, quiet):
     written.append(flow_chart(run, out / "flow.png"))
     unit = " per metre of width (2D)" if run.dimension == 2 else ""
     sections.append(figure(written[-1], (
-        "Maximum particle speed (left) and total kinetic energy" + unit + " (right) against "
-        "time, from metrics.csv.")))
+        "Left: the flow speed against time, the largest grid velocity where the snow is denser "
+        "than 100 kg/m³ (the volume caches, up to 60 frames; the speed the snow moves with, "
+        "the field of Gaume et al. 2019, Fig. 6), and the fastest particle's own speed "
+        "(metrics.csv <code>max_speed</code>; with pure FLIP it also carries particle noise). "
+        "Right: total kinetic energy" + unit + " (metrics.csv).")))
 
     sections.append("<h2>McClung &amp; Gauer diagram and α-angle</h2>")
     written.append(mcclung_gauer_chart(run, out / "mcclung_gauer.png"))
     sections.append(figure(written[-1], (
-        "As in Gaume et al. (2019), Fig. 7. Left: maximum flow speed u<sub>m</sub> (summary.json "
-        "<code>max_speed</code>) against the square root of the path length L, with the "
+        "As in Gaume et al. (2019), Fig. 7. Left: maximum flow speed u<sub>m</sub> (the grid "
+        "flow speed of the Flow chart; summary.json <code>max_speed</code>, the fastest particle, "
+        "when the run wrote no density and velocity volumes) against the square root of the "
+        "path length L, with the "
         "relation u<sub>m</sub> ≈ 1.5 L<sup>1/2</sup> of McClung &amp; Gauer (2018) that the "
         "paper quotes; their field data points are not bundled, only this fit. Here L is the "
         "straight distance from the highest point of the release (first frame) to the farthest "

@@ -353,6 +353,20 @@ def check_slide(binary, work):
     check(red.sum() > 100, f"the run's point is drawn ({red.sum()} red pixels)")
     info = json.loads((report_dir / "data" / "report.json").read_text())
     check(info["deposit_far_x"] > info["release_top_x"], "the deposit lies down-slope of the top")
+    check("u_m, fastest particle (report)" in page,
+          "without velocity volumes u_m is the fastest particle's speed")
+
+    # With density and velocity volumes u_m is the grid's flow speed: for this APIC slide the
+    # same motion as the particles', a little below the fastest particle's own speed.
+    with_volumes = run_scene(binary, work, "slide-volumes",
+                             SLIDE.replace("volumes = []", 'volumes = ["density", "velocity"]'))
+    firn(binary, "report", str(with_volumes), "--quiet")
+    page = (with_volumes / "report" / "report.html").read_text()
+    found = re.search(r"u_m, grid flow speed \(report\)</td><td class=num>([0-9.eE+-]+)", page)
+    fastest = json.loads((with_volumes / "summary.json").read_text())["max_speed"]
+    check(found is not None and 0.5 * fastest < float(found.group(1)) <= 1.01 * fastest,
+          f"with volumes u_m is the grid flow speed ({found and found.group(1)} m/s, fastest "
+          f"particle {fastest:.3g} m/s)")
 
 
 def check_pulled_slab(binary, work):
