@@ -49,6 +49,15 @@ def run(firn, dx, threads, work):
     }
 
 
+def two_curves(ax, plot, dx, rows, first, second, title):
+    """Two quantities against dx on one panel: (key, label) pairs, circles and dashed squares."""
+    plot(dx, [r[first[0]] for r in rows], "o-", label=first[1])
+    plot(dx, [r[second[0]] for r in rows], "s--", label=second[1])
+    ax.set_xlabel("dx (m)")
+    ax.set_title(title)
+    ax.legend()
+
+
 def chart(rows, path):
     dx = [r["dx"] for r in rows]
     fig, axes = plt.subplots(1, 3, figsize=(13, 4), constrained_layout=True)
@@ -57,18 +66,11 @@ def chart(rows, path):
     ax.set_xlabel("dx (m)")
     ax.set_ylabel("runout along the path (m)")
     ax.set_title("Runout (farthest moved snow)")
-    ax = axes[1]
-    ax.plot(dx, [r["max_speed"] for r in rows], "o-", label="max speed (m/s)")
-    ax.plot(dx, [r["alpha_angle_deg"] for r in rows], "s--", label="alpha angle (deg)")
-    ax.set_xlabel("dx (m)")
-    ax.set_title("Peak speed and alpha angle")
-    ax.legend()
+    two_curves(axes[1], axes[1].plot, dx, rows, ("max_speed", "max speed (m/s)"),
+               ("alpha_angle_deg", "alpha angle (deg)"), "Peak speed and alpha angle")
     ax = axes[2]
-    ax.loglog(dx, [r["wall_seconds"] for r in rows], "o-", label="wall time (s, 2 cores)")
-    ax.loglog(dx, [r["peak_rss_mb"] for r in rows], "s--", label="peak memory (MB)")
-    ax.set_xlabel("dx (m)")
-    ax.set_title("Cost")
-    ax.legend()
+    two_curves(ax, ax.loglog, dx, rows, ("wall_seconds", "wall time (s, 2 cores)"),
+               ("peak_rss_mb", "peak memory (MB)"), "Cost")
     ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
     ax.xaxis.set_minor_formatter(matplotlib.ticker.ScalarFormatter())
     for a in axes:
