@@ -541,6 +541,25 @@ TEST_CASE("Settling is on by default, off with a gravity ramp, and not both", "[
           "scenes/test.toml:2:19: error: simulation.settle_max_time: must be > 0, got 0");
 }
 
+TEST_CASE("The FLIP fraction is a blend or a relaxation time, not both", "[scene][errors]") {
+    const std::string both = "[grid]\nflip_blend = 0.99\nflip_relaxation_time = 0.5\n";
+    CHECK(errorOf(both) == "scenes/test.toml:3:24: error: grid.flip_relaxation_time: flip_blend "
+                           "and flip_relaxation_time are two ways to set the FLIP fraction: give "
+                           "one");
+    // From the command line, one overrides the other given in the file.
+    const SceneDesc relaxed =
+        parseScene("[grid]\nflip_blend = 1.0\n", kPath, {"grid.flip_relaxation_time=0.5"});
+    CHECK(relaxed.grid.flipRelaxationTime == 0.5);
+    CHECK(parseScene(relaxed.resolvedToml, kPath).grid.flipRelaxationTime == 0.5);
+    const SceneDesc blended =
+        parseScene("[grid]\nflip_relaxation_time = 0.5\n", kPath, {"grid.flip_blend=0.99"});
+    CHECK(blended.grid.flipRelaxationTime == 0.0);
+    CHECK(blended.grid.flipBlend == 0.99);
+    CHECK(parseScene(blended.resolvedToml, kPath).grid.flipBlend == 0.99);
+    CHECK(errorOf("[grid]\nflip_relaxation_time = 0.0\n") ==
+          "scenes/test.toml:2:24: error: grid.flip_relaxation_time: must be > 0, got 0");
+}
+
 TEST_CASE("A saw cut must leave part of its layer", "[scene][errors]") {
     const std::string layer =
         kMinimal + "\n[[body]]\nname = \"weak\"\nmaterial = \"slab\"\nshape = \"layer\"\n"

@@ -60,6 +60,9 @@ struct GridDesc {
     int particlesPerCell = 8;
     Transfer transfer = Transfer::Apic;
     double flipBlend = 0.95; ///< FLIP fraction, only for Transfer::Flip
+    /// s; > 0 replaces flipBlend by exp(-dt / flipRelaxationTime) each step, so that the
+    /// particles' noise relaxes toward the grid velocity at a rate per second, not per step.
+    double flipRelaxationTime = 0.0;
     double cfl = 0.4;
     double maxDt = 1.0e-3; ///< s
     double jitter = 0.5;   ///< fraction of a sub-cell by which seeds are jittered

@@ -571,7 +571,14 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
     out << "scene " << scene.path << ": \"" << scene.simulation.name << "\", "
         << scene.simulation.dimension << "D, dx = " << scene.grid.dx << " m, "
         << scene.grid.particlesPerCell << " particles per cell, transfer "
-        << toString(scene.grid.transfer) << "\n";
+        << toString(scene.grid.transfer);
+    if (scene.grid.transfer == Transfer::Flip) {
+        if (scene.grid.flipRelaxationTime > 0)
+            out << ", its noise relaxed over " << scene.grid.flipRelaxationTime << " s";
+        else
+            out << ", blend " << scene.grid.flipBlend;
+    }
+    out << "\n";
     for (const MaterialDesc& material : scene.materials) out << describeMaterial(material);
     out << describeTerrain(scene);
     out << "  memory: about " << formatBytes(memory.bytes) << " for about "

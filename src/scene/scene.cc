@@ -191,6 +191,20 @@ void readGrid(TableReader& r, GridDesc& grid) {
     r.choice("transfer", grid.transfer, kTransfers);
     // Accepted with every transfer, so that --set grid.transfer=apic works on a FLIP scene.
     r.real("flip_blend", grid.flipBlend, Range::closed(0.0, 1.0));
+    r.real("flip_relaxation_time", grid.flipRelaxationTime, Range::positive());
+    if (r.has("flip_blend") && r.has("flip_relaxation_time")) {
+        // Two ways to set the FLIP fraction. A --set of one overrides the other from the file,
+        // so that either can be tried on a shipped scene; both in one place is an error.
+        const auto fromCommandLine = [&](std::string_view key) {
+            return r.locOf(*r.table().get(key)).line <= 0;
+        };
+        const bool blendSet = fromCommandLine("flip_blend");
+        if (blendSet == fromCommandLine("flip_relaxation_time"))
+            r.failAt("flip_relaxation_time",
+                     "flip_blend and flip_relaxation_time are two ways to set the FLIP fraction: "
+                     "give one");
+        if (blendSet) grid.flipRelaxationTime = 0.0;
+    }
     r.real("cfl", grid.cfl, Range::openClosed(0.0, 10.0));
     r.real("max_dt", grid.maxDt, Range::positive());
     r.real("jitter", grid.jitter, Range::closed(0.0, 1.0));
@@ -594,6 +608,14 @@ void absoluteTerrainFiles(toml::table& root, const SceneDesc& desc) {
     }
 }
 
+// A --set of flip_blend or flip_relaxation_time overrides the other from the file (readGrid):
+// the as-run copy keeps only the one in force, so that it reads back.
+void dropOverriddenKeys(toml::table& root, const SceneDesc& desc) {
+    toml::table* grid = root["grid"].as_table();
+    if (grid && grid->contains("flip_blend") && grid->contains("flip_relaxation_time"))
+        grid->erase(desc.grid.flipRelaxationTime > 0 ? "flip_blend" : "flip_relaxation_time");
+}
+
 toml::table parseDocument(const std::string& text, const std::string& path) {
     try {
         return toml::parse(text, std::string_view(path));
@@ -613,6 +635,7 @@ SceneDesc parseScene(const std::string& text, const std::string& path,
     scene::applyOverrides(root, overrides);
     SceneDesc desc = scene::readScene(root, path);
     scene::absoluteTerrainFiles(root, desc);
+    scene::dropOverriddenKeys(root, desc);
     // No multi-line or literal strings: toml++ 3.3 writes a string that starts with a newline
     // as a multi-line one, whose first newline TOML drops on reading (found by fuzzing).
     std::ostringstream resolved;

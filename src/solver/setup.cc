@@ -468,6 +468,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
     w.dx = float(scene.grid.dx);
     w.transfer = scene.grid.transfer;
     w.flipBlend = float(scene.grid.flipBlend);
+    w.flipRelaxationTime = float(scene.grid.flipRelaxationTime);
     w.cfl = float(scene.grid.cfl);
     w.maxDt = float(scene.grid.maxDt);
     w.gravity = toVec3f(scene.simulation.gravity);

@@ -193,7 +193,12 @@ void applyPlasticity(World& world, double stateTime) {
 
 void step(World& world, double dt, StepTimings* timings) {
     const float dtf = static_cast<float>(dt);
-    const TransferParams params{world.dim, world.dx, dtf, world.transfer, world.flipBlend};
+    // A relaxation time makes the PIC share, and so the transfer's damping, a rate per
+    // second: the same whatever dt the CFL number gives.
+    const float flipBlend = world.flipRelaxationTime > 0.f
+                                ? std::exp(-dtf / world.flipRelaxationTime)
+                                : world.flipBlend;
+    const TransferParams params{world.dim, world.dx, dtf, world.transfer, flipBlend};
     {
         StageClock clock(timings ? &timings->p2g : nullptr);
         world.grid.rebuild(world.particles, world.transfer == Transfer::Flip ? 3 : 0);

@@ -140,6 +140,7 @@ TEST_CASE("A slab released on its collapsed weak layer is not held back by the t
                                 {"simulation.end_time=1.5"});
     scene.grid.transfer = slope.grid.transfer;
     scene.grid.flipBlend = slope.grid.flipBlend;
+    scene.grid.flipRelaxationTime = slope.grid.flipRelaxationTime;
     auto world = buildWorld(scene);
     // The slab's mean speed along the slope over x = 3-6 m.
     auto slabSpeed = [&world] {
