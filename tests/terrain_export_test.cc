@@ -211,6 +211,16 @@ x_range = [1.0, 3.0]
         INFO("z = " << z);
         CHECK(zeroCrossing(*grid, 3.0, z, 1.5, 2.0) == Approx(1.75).margin(0.01 * 0.1));
     }
+    // Below the ground is inside everywhere over the extent, far below the band too: the
+    // renderer draws a 2D run's ground from the sign (a node of the tree without band voxels,
+    // below the run-out and left of x = 0, was once flood-filled as outside).
+    const auto height = [](double x) { return x < 4.0 ? 4.0 - 0.75 * x : 1.0 - (x - 4.0) / 6.0; };
+    for (double x : {-0.95, -0.5, 0.5, 3.0, 7.0, 10.95})
+        for (double depth : {0.5, 2.0, 6.0, 12.0}) {
+            const openvdb::Vec3d p(x, std::min(height(std::max(x, 0.0)), 0.0) - depth, 0.0);
+            INFO("x " << x << ", y " << p[1]);
+            CHECK(grid->tree().getValue(grid->transform().worldToIndexCellCentered(p)) < 0.f);
+        }
 
     // A long path (scenes/path2d: a 30 m release on a 600 m profile): the whole profile, not
     // 10 release sizes around the release (here 2 m: 20 m).

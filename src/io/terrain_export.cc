@@ -8,6 +8,7 @@
 
 #include <openvdb/io/Archive.h>
 #include <openvdb/openvdb.h>
+#include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
 
 #include <algorithm>
@@ -126,6 +127,46 @@ openvdb::FloatGrid::Ptr sampleLevelSet(const std::vector<Collider>& colliders,
             }
         }
     openvdb::tools::signedFloodFill(grid->tree());
+    // The ground is a height field: whatever lies below its column's band is inside.
+    // signedFloodFill signs a tree node that holds no band voxel from its neighbours in scan
+    // order, and the tree has no node at all where no band voxel is near: both once left a box
+    // below the run-out outside, which firn render drew as sky under a 2D run's ground (and a
+    // mesher would have drawn its walls). So: a fill below the lowest band, as deep as the
+    // terrain is high and wide (what a camera framing it sees), then every inactive value
+    // (voxel or tile) below the band of each sampled column it spans is set inside.
+    const auto bandBottom = [&](int i, int k) { return int(std::floor(lo[i * nz + k] / h)) - r; };
+    int lowestBand = std::numeric_limits<int>::max();
+    int highestBand = std::numeric_limits<int>::min();
+    for (int i = r; i < nx - r; ++i)
+        for (int k = r; k < nz - r; ++k) {
+            lowestBand = std::min(lowestBand, bandBottom(i, k));
+            highestBand = std::max(highestBand, int(std::ceil(hi[i * nz + k] / h)) + r);
+        }
+    if (lowestBand <= highestBand) {
+        // Widened to whole leaves (8 voxels) across, so that the box is tiles, not leaves.
+        const auto leafFloor = [](int v) { return v & ~7; };
+        const int depth = highestBand - lowestBand + std::max(nx, nz);
+        grid->tree().fill(
+            openvdb::CoordBBox(
+                openvdb::Coord(leafFloor(i0 + r), leafFloor(lowestBand - depth), leafFloor(k0 + r)),
+                openvdb::Coord(leafFloor(i0 + nx - r - 1) + 7, lowestBand - 1,
+                               leafFloor(k0 + nz - r - 1) + 7)),
+            -float(band), false);
+    }
+    for (auto it = grid->tree().beginValueOff(); it; ++it) {
+        if (*it < 0.f) continue;
+        const openvdb::CoordBBox b = it.getBoundingBox();
+        const int ia = std::max(b.min().x() - i0, r), ib = std::min(b.max().x() - i0, nx - r - 1);
+        const int ka = std::max(b.min().z() - k0, r), kb = std::min(b.max().z() - k0, nz - r - 1);
+        if (ia > ib || ka > kb) continue; // outside the sampled columns: nothing known
+        int lowest = std::numeric_limits<int>::max();
+        for (int i = ia; i <= ib; ++i)
+            for (int k = ka; k <= kb; ++k) lowest = std::min(lowest, bandBottom(i, k));
+        if (b.max().y() < lowest) it.setValue(-float(band));
+    }
+    // Uniform nodes become tiles. Not pruneLevelSet: it signs a node without band voxels by its
+    // first value, and would turn the fill's node back outside.
+    openvdb::tools::prune(grid->tree());
     grid->setGridClass(openvdb::GRID_LEVEL_SET);
     grid->setName("surface");
     return grid;
