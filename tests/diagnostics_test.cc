@@ -181,6 +181,21 @@ TEST_CASE("crack tracker: the end that propagated leads, not one carried by flow
     CHECK(crack.meanSpeed() == Approx(0.8 * 7.0 / (0.266 - 0.207)).epsilon(1e-9));
 }
 
+TEST_CASE("crack tracker: the mean speed ends where the crack stopped, not where flow carried it",
+          "[diagnostics]") {
+    CrackTracker crack;
+    // A crack runs down-slope at 50 m/s from x = 9 to 18 m (the weak layer's end) ...
+    crack.update(crackFrame(8.0, 9.0), 0.36);
+    for (int k = 1; k <= 9; ++k) crack.update(crackFrame(8.0, 9.0 + 1.0 * k), 0.36 + 0.02 * k);
+    CHECK(crack.direction() == 1);
+    // ... then the sliding slab carries the failed layer on at 2.5 m/s for 1 s.
+    double t = 0.54;
+    for (int k = 1; k <= 25; ++k) crack.update(crackFrame(8.0, 18.0 + 0.1 * k), t += 0.04);
+    CHECK(crack.tip() == Approx(20.5));
+    // The travel is the crack's 9 m, not 11.5: 10 % passed at 0.378 s, 90 % at 0.522 s.
+    CHECK(crack.meanSpeed() == Approx(0.8 * 9.0 / (0.522 - 0.378)).epsilon(1e-9)); // 50 m/s
+}
+
 TEST_CASE("crack tracker: a mean speed from a crack that crossed the column in two frames",
           "[diagnostics]") {
     CrackTracker crack;

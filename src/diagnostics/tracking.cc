@@ -63,10 +63,16 @@ double CrackTracker::tipAt(double time) const {
 double CrackTracker::meanSpeed() const {
     const auto& history = mDirection < 0 ? mUpHistory : mDownHistory;
     if (history.size() < 2) return 0.0;
-    // Distance along the direction of travel from the start; the farthest reached is the travel.
+    // Distance along the direction of travel from the start. The travel is the farthest point
+    // an advance at crack speed (kMinCrackSpeed or faster) reached: failed weak layer that
+    // released snow carries on afterwards moves the end on slowly, and is not the crack.
     const double sign = mDirection < 0 ? -1.0 : 1.0, x0 = history.front().second;
     double travel = 0.0;
-    for (const auto& entry : history) travel = std::max(travel, sign * (entry.second - x0));
+    for (std::size_t k = 1; k < history.size(); ++k) {
+        const double a = sign * (history[k - 1].second - x0), b = sign * (history[k].second - x0);
+        if (b - a >= kMinCrackSpeed * (history[k].first - history[k - 1].first))
+            travel = std::max(travel, b);
+    }
     if (!(travel > 0.0)) return 0.0;
     // The first time the end passed `fraction` of the travel, interpolated between frames.
     auto passed = [&](double fraction) {
