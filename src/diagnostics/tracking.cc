@@ -7,6 +7,14 @@
 
 namespace firn {
 
+namespace {
+/// An advance of the crack's end by `advance` m in `dt` s is the crack running, not snow
+/// carrying failed weak layer along.
+bool atCrackSpeed(double advance, double dt) {
+    return advance >= kMinCrackSpeed * dt;
+}
+} // namespace
+
 void CrackTracker::update(const FrameDiagnostics& d, double time) {
     mSpeed = std::nan("");
     if (std::isnan(d.crackMinX)) return;
@@ -30,9 +38,8 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
         return;
     }
     const double upAdvance = mMinX - d.crackMinX, downAdvance = d.crackMaxX - mMaxX;
-    const double fast = kMinCrackSpeed * (time - mTime);
-    if (upAdvance >= fast) mUpPropagated += upAdvance;
-    if (downAdvance >= fast) mDownPropagated += downAdvance;
+    if (atCrackSpeed(upAdvance, time - mTime)) mUpPropagated += upAdvance;
+    if (atCrackSpeed(downAdvance, time - mTime)) mDownPropagated += downAdvance;
     const bool upSlope = mUpPropagated != mDownPropagated
                              ? mUpPropagated > mDownPropagated
                              : mMinX0 - d.crackMinX > d.crackMaxX - mMaxX0;
@@ -70,7 +77,7 @@ double CrackTracker::meanSpeed() const {
     double travel = 0.0;
     for (std::size_t k = 1; k < history.size(); ++k) {
         const double a = sign * (history[k - 1].second - x0), b = sign * (history[k].second - x0);
-        if (b - a >= kMinCrackSpeed * (history[k].first - history[k - 1].first))
+        if (atCrackSpeed(b - a, history[k].first - history[k - 1].first))
             travel = std::max(travel, b);
     }
     if (!(travel > 0.0)) return 0.0;

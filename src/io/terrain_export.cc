@@ -116,11 +116,12 @@ openvdb::FloatGrid::Ptr sampleLevelSet(const std::vector<Collider>& colliders,
     auto grid = openvdb::FloatGrid::create(float(band));
     grid->setTransform(openvdb::math::Transform::createLinearTransform(h));
     auto acc = grid->getAccessor();
+    // The band of column (i, k): voxel rows from bandBottom to bandTop.
+    const auto bandBottom = [&](int i, int k) { return int(std::floor(lo[i * nz + k] / h)) - r; };
+    const auto bandTop = [&](int i, int k) { return int(std::ceil(hi[i * nz + k] / h)) + r; };
     for (int i = r; i < nx - r; ++i)
         for (int k = r; k < nz - r; ++k) {
-            const int j0 = int(std::floor(lo[i * nz + k] / h)) - r;
-            const int j1 = int(std::ceil(hi[i * nz + k] / h)) + r;
-            for (int j = j0; j <= j1; ++j) {
+            for (int j = bandBottom(i, k); j <= bandTop(i, k); ++j) {
                 const Vec3f p(float((i0 + i) * h), float(j * h), float((k0 + k) * h));
                 const float d = sdf(colliders, p);
                 if (std::abs(d) < band) acc.setValue(openvdb::Coord(i0 + i, j, k0 + k), d);
@@ -134,13 +135,12 @@ openvdb::FloatGrid::Ptr sampleLevelSet(const std::vector<Collider>& colliders,
     // mesher would have drawn its walls). So: a fill below the lowest band, as deep as the
     // terrain is high and wide (what a camera framing it sees), then every inactive value
     // (voxel or tile) below the band of each sampled column it spans is set inside.
-    const auto bandBottom = [&](int i, int k) { return int(std::floor(lo[i * nz + k] / h)) - r; };
     int lowestBand = std::numeric_limits<int>::max();
     int highestBand = std::numeric_limits<int>::min();
     for (int i = r; i < nx - r; ++i)
         for (int k = r; k < nz - r; ++k) {
             lowestBand = std::min(lowestBand, bandBottom(i, k));
-            highestBand = std::max(highestBand, int(std::ceil(hi[i * nz + k] / h)) + r);
+            highestBand = std::max(highestBand, bandTop(i, k));
         }
     if (lowestBand <= highestBand) {
         // Widened to whole leaves (8 voxels) across, so that the box is tiles, not leaves.

@@ -185,6 +185,11 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     r.finish();
 }
 
+/// Whether `key` came from a --set on the command line (it has no line in the scene file).
+bool setOnCommandLine(const TableReader& r, std::string_view key) {
+    return r.locOf(*r.table().get(key)).line <= 0;
+}
+
 void readGrid(TableReader& r, GridDesc& grid) {
     r.real("dx", grid.dx, Range::positive());
     r.integer("particles_per_cell", grid.particlesPerCell, Range::closed(1, 64));
@@ -195,11 +200,8 @@ void readGrid(TableReader& r, GridDesc& grid) {
     if (r.has("flip_blend") && r.has("flip_relaxation_time")) {
         // Two ways to set the FLIP fraction. A --set of one overrides the other from the file,
         // so that either can be tried on a shipped scene; both in one place is an error.
-        const auto fromCommandLine = [&](std::string_view key) {
-            return r.locOf(*r.table().get(key)).line <= 0;
-        };
-        const bool blendSet = fromCommandLine("flip_blend");
-        if (blendSet == fromCommandLine("flip_relaxation_time"))
+        const bool blendSet = setOnCommandLine(r, "flip_blend");
+        if (blendSet == setOnCommandLine(r, "flip_relaxation_time"))
             r.failAt("flip_relaxation_time",
                      "flip_blend and flip_relaxation_time are two ways to set the FLIP fraction: "
                      "give one");
