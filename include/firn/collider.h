@@ -12,6 +12,10 @@
 
 namespace firn {
 
+/// A node on a collider surface is in contact. Node positions i * dx are rounded in float, so a
+/// node exactly on a plane can land one ulp outside; this tolerance (of dx) keeps it in contact.
+constexpr float kContactTolerance = 1e-4f;
+
 class Collider {
 public:
     /// Throws SceneError for shapes that cannot be built (an unreadable heightfield). A
@@ -42,17 +46,22 @@ public:
     /// True for ground that carries weight under `gravity`: profiles and heightfields, and
     /// planes that face against gravity by more than about 6 degrees (not walls or ceilings).
     bool carriesWeight(const Vec3f& gravity) const;
-    /// The same collider with another boundary condition (the settling stage holds the ground
-    /// sticky).
-    Collider withBoundary(Boundary boundary) const {
+    /// The same collider holding every node in contact at rest, as friction does where the
+    /// contact sticks: the settling stage's ground, so that the settled state is in equilibrium
+    /// under the run's own contact. A sticky collider stays as it is.
+    Collider heldAtRest() const {
         Collider c = *this;
-        c.mBoundary = boundary;
+        if (mBoundary != Boundary::Sticky) c.mBoundary = Boundary::Sticky, c.mHeldAtRest = true;
         return c;
     }
+    /// True for a sticky collider whose inside nodes mirror the outside (firn/sticky_walls.h);
+    /// false for one held at rest.
+    bool mirrorsInside() const { return mBoundary == Boundary::Sticky && !mHeldAtRest; }
 
 private:
     TerrainShape mShape = TerrainShape::Plane;
     Boundary mBoundary = Boundary::Friction;
+    bool mHeldAtRest = false; ///< sticky by zeroed nodes (heldAtRest)
     float mFriction = 0.4f;
     float mTurbulence = 2000.f;
     int mDim = 3;

@@ -40,6 +40,9 @@ public:
     const float* aux(std::size_t b) const;
     int auxChannels() const;
 
+    /// The block of leaf key `key`, or -1 where the grid has none.
+    std::int32_t blockOf(const LeafKey& key) const;
+
     /// For particle leaf l: the grid block of key leaves[l] + o.
     const std::vector<NeighbourIndices>& blocksOfParticleLeaf() const;
     /// For grid block b: the particle leaf of key blockKey(b) - o, or -1.

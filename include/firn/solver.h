@@ -8,6 +8,7 @@
 #include <firn/particles.h>
 #include <firn/scene.h>
 #include <firn/settle.h>
+#include <firn/sticky_walls.h>
 #include <firn/transfer.h>
 
 #include <limits>
@@ -43,6 +44,7 @@ struct World {
     ParticleSet particles;
     Grid grid;
     TransferScratch scratch;
+    StickyWalls stickyWalls; ///< the sticky colliders' ghost nodes of the current step
     SleepNeighbours sleepNeighbours;
 
     double time = 0.0; ///< s
@@ -87,7 +89,8 @@ struct StepTimings {
 /// One explicit step of length dt. Times each stage into `timings` when given.
 void step(World& world, double dt, StepTimings* timings = nullptr);
 
-/// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions.
+/// Grid update: v = p / m + dt g (+ FLIP impulse), then the colliders' boundary conditions;
+/// sticky colliders as a constraint folded into the update (firn/sticky_walls.h).
 void updateGridVelocity(World& world, float dt);
 
 /// Voellmy's turbulent basal friction (RAMMS; Salm 1993): a basal shear stress rho g u^2 / xi

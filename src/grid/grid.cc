@@ -126,6 +126,10 @@ int Grid::auxChannels() const {
     return mImpl->auxChannels;
 }
 
+std::int32_t Grid::blockOf(const LeafKey& key) const {
+    return findKey(mImpl->keys, key);
+}
+
 const std::vector<NeighbourIndices>& Grid::blocksOfParticleLeaf() const {
     return mImpl->blocksOfParticleLeaf;
 }

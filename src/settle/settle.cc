@@ -26,7 +26,8 @@ void stopAll(ParticleSet& ps) {
 }
 
 /// What the world looks like while it settles: elastic materials, the ground (terrain that
-/// carries weight, whatever its boundary condition) sticky, walls as they are, full gravity,
+/// carries weight) sticky (held at rest where it is not sticky in the scene: the equilibrium
+/// of friction that sticks), walls as they are, full gravity,
 /// nothing asleep. Restored on destruction, so that an
 /// exception leaves the world as the scene describes it.
 class SettlingConditions {
@@ -39,7 +40,7 @@ public:
         , mGravityRamp(w.gravityRamp) {
         for (Material& m : w.materials) m.model = MaterialModel::Elastic;
         for (Collider& c : w.colliders)
-            if (c.carriesWeight(w.gravity)) c = c.withBoundary(Boundary::Sticky);
+            if (c.carriesWeight(w.gravity)) c = c.heldAtRest();
         w.sleep = false;
         w.gravityRamp = 0.f;
     }

@@ -14,10 +14,6 @@ namespace firn {
 
 namespace {
 
-// A node on a collider surface is in contact. Node positions i * dx are rounded in float, so a
-// node exactly on a plane can land one ulp outside; this tolerance keeps it in contact.
-constexpr float kContactTolerance = 1e-4f; // of dx
-
 class StageClock {
 public:
     explicit StageClock(double* sink)
@@ -80,6 +76,8 @@ void updateGridVelocity(World& world, float dt) {
     const float ramp =
         world.gravityRamp > 0.f ? std::min(1.f, float(world.time) / world.gravityRamp) : 1.f;
     const Vec3f dv = (dt * ramp) * world.gravity;
+    world.stickyWalls.fold(world.colliders, grid, world.dx, world.dim, flip, dv);
+    const StickyWalls& walls = world.stickyWalls;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
             const float* mass = grid.mass(b);
@@ -95,6 +93,7 @@ void updateGridVelocity(World& world, float dt) {
                             v[0] = v[1] = v[2] = 0.f;
                             continue;
                         }
+                        if (walls.isGhost(b, n)) continue; // mirrored below
                         const float invM = 1.f / mass[n];
                         Vec3f vn(v[0] * invM, v[1] * invM, v[2] * invM);
                         if (flip) {
@@ -115,6 +114,7 @@ void updateGridVelocity(World& world, float dt) {
                     }
         }
     });
+    walls.mirror(grid, flip);
 }
 
 void applyBasalDrag(World& world, float dt) {
