@@ -43,6 +43,12 @@ public:
         return !mState.empty() && mState[block * kLeafNodes + std::size_t(node)] == kGhost;
     }
 
+    /// True for a node that a sticky collider holds at rest (on its surface, or inside
+    /// without a mirror). The update skips the sticky colliders and zeroes these nodes.
+    bool isHeld(std::size_t block, int node) const {
+        return !mState.empty() && mState[block * kLeafNodes + std::size_t(node)] == kHeld;
+    }
+
     /// After the update: every ghost takes the negated velocity at its mirror point (for FLIP
     /// also the negated reference velocity in Grid::aux, so that its FLIP increment mirrors too).
     void mirror(Grid& grid, bool flip) const;

@@ -107,8 +107,11 @@ void updateGridVelocity(World& world, float dt) {
                                        float(key[1] * kLeafDim + j) * world.dx,
                                        world.dim == 3 ? float(key[2] * kLeafDim + k) * world.dx
                                                       : 0.f);
+                        // Sticky colliders were evaluated by the fold: their held nodes stop.
+                        if (walls.isHeld(b, n)) vn = Vec3f::Zero();
                         for (const Collider& c : world.colliders)
-                            if (c.signedDistance(xn) <= kContactTolerance * world.dx)
+                            if (!c.mirrorsInside() &&
+                                c.signedDistance(xn) <= kContactTolerance * world.dx)
                                 vn = c.applyBoundary(vn, c.normal(xn));
                         v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
                     }
