@@ -144,23 +144,27 @@ TEST_CASE("a layer drapes over a heightfield", "[collider][setup]") {
 
 namespace {
 
-/// A shear flow v = s d t over a sticky plane through the origin at `degrees` to the x axis
-/// (d: distance from the plane, t: the plane's direction), given to the particles with its
-/// exact APIC gradient, transferred once (P2G, grid update, G2P; no gravity, no stress). Returns
-/// the mean relative error of the shear rate t.C.n that the particles within 1.5 cells of the
-/// plane read back, and (in `bulkError`) the same for those more than 3 cells from any edge.
-double nearWallShearError(double degrees, double& bulkError) {
-    const double a = degrees * 3.14159265358979 / 180.0;
-    const Vec3f t(float(std::cos(a)), float(std::sin(a)), 0.f);
-    const Vec3f n(-t[1], t[0], 0.f);
+/// A shear flow v = s d t over a sticky plane through the origin with unit normal n (d: distance
+/// from the plane, t: the plane's tangent closest to x), given to the particles with its exact
+/// APIC gradient, transferred once (P2G, grid update, G2P; no gravity, no stress). Returns the
+/// mean relative error of the shear rate t.C.n that the particles within 1.5 cells of the plane
+/// read back, and (in `bulkError`) the same for those more than 3 cells from any edge.
+double nearWallShearError(int dim, const Vec3f& n, double& bulkError) {
+    const Vec3f t = (Vec3f::UnitX() - n[0] * n).normalized();
+    auto vec = [&](const Vec3f& v) {
+        return "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) +
+               (dim == 3 ? ", " + std::to_string(v[2]) : std::string()) + "]";
+    };
     const std::string text =
-        "[simulation]\nname = \"shear\"\ndimension = 2\nend_time = 1.0\ngravity = [0.0, 0.0]\n"
-        "settle = false\n[grid]\ndx = 0.1\nparticles_per_cell = 4\njitter = 0.0\n"
-        "[[material]]\nname = \"m\"\nmodel = \"elastic\"\n"
-        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [" +
-        std::to_string(n[0]) + ", " + std::to_string(n[1]) +
-        "]\nboundary = \"sticky\"\n"
-        "[[body]]\nmaterial = \"m\"\nshape = \"layer\"\nthickness = 1.0\nx_range = [0.0, 3.0]\n";
+        "[simulation]\nname = \"shear\"\ndimension = " + std::to_string(dim) +
+        "\nend_time = 1.0\ngravity = " + vec(Vec3f::Zero()) +
+        "\nsettle = false\n[grid]\ndx = 0.1\nparticles_per_cell = " + (dim == 3 ? "8" : "4") +
+        "\njitter = 0.0\n[[material]]\nname = \"m\"\nmodel = \"elastic\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = " +
+        vec(Vec3f::Zero()) + "\nnormal = " + vec(n) +
+        "\nboundary = \"sticky\"\n"
+        "[[body]]\nmaterial = \"m\"\nshape = \"layer\"\nthickness = 1.0\nx_range = [0.0, 3.0]\n" +
+        (dim == 3 ? "z_range = [0.0, 1.2]\n" : "");
     auto w = buildWorld(test::sceneFromText(text, "shear"));
     const float s = 2.f; // 1/s
     ParticleSet& ps = w->particles;
@@ -172,10 +176,11 @@ double nearWallShearError(double degrees, double& bulkError) {
     double wall = 0, bulk = 0;
     int nWall = 0, nBulk = 0;
     for (std::size_t i = 0; i < ps.size(); ++i) {
-        const float d = n.dot(ps.x[i]), along = t.dot(ps.x[i]);
+        const float d = n.dot(ps.x[i]), along = t.dot(ps.x[i]), z = ps.x[i][2];
+        if (along < 0.3f || along > 2.7f || (dim == 3 && (z < 0.3f || z > 0.9f))) continue;
         const double error = std::abs(t.dot(ps.C[i] * n) / s - 1.0);
-        if (d < 0.15f && along > 0.3f && along < 2.7f) wall += error, ++nWall;
-        if (d > 0.3f && d < 0.7f && along > 0.3f && along < 2.7f) bulk += error, ++nBulk;
+        if (d < 0.15f) wall += error, ++nWall;
+        if (d > 0.3f && d < 0.7f) bulk += error, ++nBulk;
     }
     REQUIRE(nWall > 20);
     REQUIRE(nBulk > 20);
@@ -189,17 +194,25 @@ TEST_CASE("a sticky wall reproduces a shear flow that grows linearly from it", "
     // Nodes inside a sticky collider take the negated velocity of their mirror image
     // (firn/sticky_walls.h). Zeroing them instead gave the particles in the first 1.5 cells a
     // shear rate 5.2 % low on average on the aligned wall (the row a quarter cell from the wall
-    // reads 3/4 of it): the test fails without the mirror. Measured with it: 2e-7 (aligned),
-    // 1.7 % (30 deg).
-    for (double degrees : {0.0, 30.0}) {
+    // reads 3/4 of it): the test fails without the mirror. Measured with it: 2e-7 (aligned, 2D
+    // and 3D), 1.7 % (2D, 30 deg), 1.2 % (3D, a plane tilted about two axes).
+    struct Case {
+        int dim;
+        Vec3f normal;
+        double tolerance;
+    };
+    const float c30 = std::cos(0.5236f), s30 = std::sin(0.5236f);
+    // A wall through grid nodes mirrors node onto node: exact to rounding. A tilted wall
+    // interpolates its mirrors (bi- or trilinearly) and drops mirror corners inside the wall.
+    for (const Case& c : {Case{2, Vec3f(0.f, 1.f, 0.f), 1e-3}, Case{2, Vec3f(-s30, c30, 0.f), 0.05},
+                          Case{3, Vec3f(0.f, 1.f, 0.f), 1e-3},
+                          Case{3, Vec3f(-0.5f, 0.8f, 0.33f).normalized(), 0.05}}) {
         double bulkError = 0;
-        const double wallError = nearWallShearError(degrees, bulkError);
-        INFO(degrees << " deg: mean relative error of the shear rate " << wallError
-                     << " near the wall, " << bulkError << " in the bulk");
+        const double wallError = nearWallShearError(c.dim, c.normal, bulkError);
+        INFO(c.dim << "D, normal " << c.normal.transpose() << ": mean relative error of the shear "
+                   << "rate " << wallError << " near the wall, " << bulkError << " in the bulk");
         // APIC carries a linear field exactly: the bulk to float rounding of one transfer.
         REQUIRE(bulkError < 1e-3);
-        // A wall through grid nodes mirrors node onto node: exact to rounding. A tilted wall
-        // interpolates its mirrors bilinearly and drops mirror corners inside the wall.
-        REQUIRE(wallError < (degrees == 0.0 ? 1e-3 : 0.05));
+        REQUIRE(wallError < c.tolerance);
     }
 }
