@@ -39,7 +39,7 @@ friction_angle = 30.0
 shape = "plane"
 point = [0.0, 0.0, 0.0]
 normal = [0.3, 1.0, 0.0]
-friction = 0.3
+%BOUNDARY%
 
 [[body]]
 material = "sand"
@@ -49,9 +49,13 @@ radius = 0.3
 velocity = [1.0, -0.5, 0.2]
 )";
 
-std::string sceneText(const std::string& transfer) {
+/// `sticky`: the ground holds the sand, its inside nodes mirrored (firn/sticky_walls.h: a serial
+/// fold over the ghost nodes, in block order); else Coulomb friction 0.3.
+std::string sceneText(const std::string& transfer, bool sticky = false) {
     std::string s = kScene;
     s.replace(s.find("%TRANSFER%"), 10, transfer);
+    s.replace(s.find("%BOUNDARY%"), 10,
+              sticky ? "boundary = \"sticky\"" : "boundary = \"friction\"\nfriction = 0.3");
     return s;
 }
 
@@ -86,11 +90,17 @@ std::string metricsWithoutWallClock(const std::string& path) {
 } // namespace
 
 TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[determinism]") {
-    for (const char* transfer : {"apic", "flip"}) {
-        const SceneDesc scene = test::sceneFromText(sceneText(transfer), "determinism");
+    struct Case {
+        const char* transfer;
+        bool sticky;
+    };
+    for (const Case c :
+         {Case{"apic", false}, Case{"flip", false}, Case{"apic", true}, Case{"flip", true}}) {
+        const SceneDesc scene = test::sceneFromText(sceneText(c.transfer, c.sticky), "determinism");
         auto one = runWithThreads(scene, 1);
         auto two = runWithThreads(scene, 2);
-        INFO(transfer << ": " << one->particles.size() << " particles, " << one->steps << " steps");
+        INFO(c.transfer << (c.sticky ? ", sticky" : ", friction") << ": " << one->particles.size()
+                        << " particles, " << one->steps << " steps");
         REQUIRE(one->steps == two->steps);
         REQUIRE(one->steps > 20);
         REQUIRE(one->particles.size() > 5000); // several leaves, so both threads get work
