@@ -15,6 +15,12 @@ namespace firn {
 
 constexpr int kLeafNodes = kLeafDim * kLeafDim * kLeafDim;
 
+/// World position of node (i, j, k) of the leaf with key `key` (2D: k = 0, z = 0), m.
+inline Vec3f nodePosition(const LeafKey& key, int i, int j, int k, float dx, int dim) {
+    return Vec3f(float(key[0] * kLeafDim + i) * dx, float(key[1] * kLeafDim + j) * dx,
+                 dim == 3 ? float(key[2] * kLeafDim + k) * dx : 0.f);
+}
+
 /// Neighbour table entry: index per offset o in {0,1}^d (bit 0 x, bit 1 y, bit 2 z), or -1.
 using NeighbourIndices = std::array<std::int32_t, 8>;
 

@@ -7,15 +7,6 @@
 
 namespace firn {
 
-namespace {
-
-Vec3f nodePosition(const LeafKey& key, int i, int j, int k, float dx, int dim) {
-    return Vec3f(float(key[0] * kLeafDim + i) * dx, float(key[1] * kLeafDim + j) * dx,
-                 dim == 3 ? float(key[2] * kLeafDim + k) * dx : 0.f);
-}
-
-} // namespace
-
 void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float dx, int dim,
                        bool flip, const Vec3f& gravityImpulse) {
     mState.clear();

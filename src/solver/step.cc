@@ -103,10 +103,7 @@ void updateGridVelocity(World& world, float dt) {
                             vn += invM * impulse;
                         }
                         vn += dv;
-                        const Vec3f xn(float(key[0] * kLeafDim + i) * world.dx,
-                                       float(key[1] * kLeafDim + j) * world.dx,
-                                       world.dim == 3 ? float(key[2] * kLeafDim + k) * world.dx
-                                                      : 0.f);
+                        const Vec3f xn = nodePosition(key, i, j, k, world.dx, world.dim);
                         // Sticky colliders were evaluated by the fold: their held nodes stop.
                         if (walls.isHeld(b, n)) vn = Vec3f::Zero();
                         for (const Collider& c : world.colliders)
