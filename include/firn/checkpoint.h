@@ -18,7 +18,8 @@
 namespace firn {
 
 /// Bump when the payload's layout changes; older files are then refused with a message.
-constexpr std::uint32_t kCheckpointFormat = 3; // 2: peak fields and the COM path; 3: crack ends
+// 2: peak fields and the COM path; 3: crack ends; 4: the leaves' velocity at the start of quiet
+constexpr std::uint32_t kCheckpointFormat = 4;
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

@@ -57,6 +57,9 @@ struct ParticleSet {
     /// Per asleep leaf: the mean grid velocity of its block in the last step, i.e. what the
     /// forces on the frozen snow would add to its velocity in one step (a load that changed).
     std::vector<Vec3f> leafPush;
+    /// Per leaf: the mean velocity of its awake particles when its quiet steps began; a leaf
+    /// whose mean velocity has since changed faster than kWakeAcceleration is not at rest.
+    std::vector<Vec3f> leafQuietVelocity;
 
     std::size_t size() const { return x.size(); }
     bool asleep(std::size_t i) const { return plastic[i].flags & kFlagAsleep; }

@@ -41,7 +41,7 @@ void saveWorld(ByteWriter& out, const World& w) {
     out.array(p.x), out.array(p.v), out.array(p.C), out.array(p.H), out.array(p.tau);
     out.array(p.mass), out.array(p.volume0), out.array(p.material), out.array(p.plastic);
     out.array(p.leaves), out.array(p.leafStart), out.array(p.leafQuietSteps);
-    out.array(p.leafSleep), out.array(p.leafPush);
+    out.array(p.leafSleep), out.array(p.leafPush), out.array(p.leafQuietVelocity);
 }
 
 void loadWorld(ByteReader& in, World& w) {
@@ -66,7 +66,7 @@ void loadWorld(ByteReader& in, World& w) {
     in.array(p.x), in.array(p.v), in.array(p.C), in.array(p.H), in.array(p.tau);
     in.array(p.mass), in.array(p.volume0), in.array(p.material), in.array(p.plastic);
     in.array(p.leaves), in.array(p.leafStart), in.array(p.leafQuietSteps);
-    in.array(p.leafSleep), in.array(p.leafPush);
+    in.array(p.leafSleep), in.array(p.leafPush), in.array(p.leafQuietVelocity);
     const std::size_t n = p.x.size();
     const bool consistent = p.v.size() == n && p.C.size() == n && p.H.size() == n &&
                             p.tau.size() == n && p.mass.size() == n && p.volume0.size() == n &&

@@ -84,7 +84,8 @@ ParticleSet ParticleSet::extractFlagged(std::uint32_t flags) {
     out.dim = dim, out.dx = dx;
     std::size_t flagged = 0;
     for (const PlasticState& s : plastic) flagged += (s.flags & flags) != 0;
-    leaves.clear(), leafStart.clear(), leafQuietSteps.clear(), leafSleep.clear(), leafPush.clear();
+    leaves.clear(), leafStart.clear(), leafQuietSteps.clear(), leafSleep.clear(), leafPush.clear(),
+        leafQuietVelocity.clear();
     if (flagged == 0) return out;
     if (flagged == size()) { // all of them: hand the arrays over, no copy
         swapArrays(*this, out);
@@ -196,6 +197,7 @@ void ParticleSet::bucketByLeaf() {
         leafQuietSteps.clear();
         leafSleep.clear();
         leafPush.clear();
+        leafQuietVelocity.clear();
     } else {
         // A counting sort: particles move at most one leaf per step at CFL-limited steps, so
         // each leaf sends particles to its 27 neighbours (direction codes); rare far movers are
@@ -275,6 +277,7 @@ void ParticleSet::bucketByLeaf() {
         });
         leafQuietSteps = carryByKey(leaves, leafQuietSteps, newLeaves, std::uint16_t(0));
         leafPush = carryByKey(leaves, leafPush, newLeaves, Vec3f(Vec3f::Zero()));
+        leafQuietVelocity = carryByKey(leaves, leafQuietVelocity, newLeaves, Vec3f(Vec3f::Zero()));
         leafSleep.assign(newLeaves.size(), 0); // per-leaf state is rebuilt by the sleep pass
         leaves.swap(newLeaves);
         leafStart.swap(newStart);

@@ -17,7 +17,8 @@ namespace firn {
 namespace {
 
 struct LeafMotion {
-    float maxSpeed = 0.f; ///< over the awake particles
+    float maxSpeed = 0.f;               ///< over the awake particles
+    Vec3f meanVelocity = Vec3f::Zero(); ///< of the awake particles
     bool anyAsleep = false;
     bool anyAwake = false;
     bool pushed = false; ///< asleep, and the grid accelerates it (its load changed)
@@ -74,20 +75,26 @@ void updateSleep(World& world, float dt) {
     if (!world.sleep || nl == 0) return;
     if (ps.leafQuietSteps.size() != nl) ps.leafQuietSteps.assign(nl, 0);
     if (ps.leafPush.size() != nl) ps.leafPush.assign(nl, Vec3f::Zero());
+    if (ps.leafQuietVelocity.size() != nl) ps.leafQuietVelocity.assign(nl, Vec3f::Zero());
+    const std::uint16_t needed = static_cast<std::uint16_t>(std::min(world.sleepSteps, 65535));
     ps.leafSleep.assign(nl, ParticleSet::kAwake);
 
     std::vector<LeafMotion> motion(nl);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 16), [&](const auto& r) {
         for (std::size_t l = r.begin(); l != r.end(); ++l) {
             LeafMotion& m = motion[l];
+            int awake = 0;
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 if (ps.asleep(i)) {
                     m.anyAsleep = true;
                 } else {
                     m.anyAwake = true;
                     m.maxSpeed = std::max(m.maxSpeed, ps.v[i].norm());
+                    m.meanVelocity += ps.v[i];
+                    ++awake;
                 }
             }
+            if (awake) m.meanVelocity /= float(awake);
             // Only leaves next to awake snow watch their push (SleepLevel): deeper ones leave
             // it at zero and are woken through their neighbours.
             m.pushed = ps.leafPush[l].norm() > kWakeAcceleration * dt;
@@ -95,7 +102,22 @@ void updateSleep(World& world, float dt) {
             const bool ramping = world.time < world.gravityRamp;
             const bool slow = m.maxSpeed < world.sleepSpeed && !ramping;
             std::uint16_t& quiet = ps.leafQuietSteps[l];
-            quiet = slow ? static_cast<std::uint16_t>(std::min<int>(quiet + 1, 65535)) : 0;
+            Vec3f& start = ps.leafQuietVelocity[l];
+            if (!slow) {
+                quiet = 0;
+            } else if (quiet == 0) {
+                start = m.meanVelocity;
+                quiet = 1;
+            } else {
+                quiet = static_cast<std::uint16_t>(std::min<int>(quiet + 1, 65535));
+                // Snow that starts to fail from rest (a column beyond its strength) is slow
+                // for its first steps: at rest also means not accelerating, judged over the
+                // whole quiet window so that the noise of single steps averages out.
+                const bool accelerating =
+                    m.anyAwake && quiet >= needed &&
+                    (m.meanVelocity - start).norm() > kWakeAcceleration * dt * float(quiet);
+                if (accelerating) start = m.meanVelocity, quiet = 1;
+            }
         }
     });
     if (world.sleepNeighbours.leaves != ps.leaves) {
@@ -103,7 +125,6 @@ void updateSleep(World& world, float dt) {
         world.sleepNeighbours.leaves = ps.leaves;
     }
     const auto& neighbours = world.sleepNeighbours.of;
-    const std::uint16_t needed = static_cast<std::uint16_t>(std::min(world.sleepSteps, 65535));
     // Decisions read only this step's motion and counters, so they do not depend on the order
     // in which leaves are visited: the same for any thread count.
     std::vector<std::uint8_t> woken(nl, 0);
