@@ -375,7 +375,8 @@ def column_runout(out, quantile=0.99):
 
 
 # V8: critical cut length of scenes/pst.toml (flat) by bisection on a 3 m column, as
-# bench/pst_resolution.py: a cut "runs" when the crack reaches 2.9 m within 0.2 s. Closed form of
+# bench/pst_resolution.py: the cut at the right (down-slope) end; it "runs" when the crack reaches
+# x < 0.1 m within 0.2 s. Closed form of
 # validation.md V8 with pst.toml's slab and weak layer (Lambda 0.884 m, tau_p 1 kPa, D 0.5 m,
 # rho 250): a_c = Lambda sqrt(2 tau_p / sigma_n) = 1.129 m. A model, not truth (validation.md).
 PST_AC = 1.129
@@ -392,13 +393,16 @@ def pst_critical_cut(args, scene, dx, overrides, work):
         out = os.path.join(work, f"pst-{dx}-{i}")
         code, summary, metrics = run_scene(
             args, scene, overrides + ["body.weak.x_range=[0.0, 3.0]",
-                                      "body.slab.x_range=[0.0, 3.0]", f"cut.weak.length={cut}",
+                                      "body.slab.x_range=[0.0, 3.0]", f"cut.weak.from_x={3.0 - cut}",
+                                      f"cut.weak.length={cut}",
                                       "simulation.end_time=0.2", "simulation.frame_rate=100",
                                       "output.particles=false", "output.volumes=[]"], out)
         if summary["status"] != "ok":
             status = summary["status"]
-        reach = max([float(r["crack_tip_max_x"]) for r in metrics if r["crack_tip_max_x"]] or [0.0])
-        if reach > 2.9:
+        # The cut is at the column's right (down-slope) end, as in the field and scenes/pst.toml:
+        # the crack runs towards x = 0.
+        reach = min([float(r["crack_tip_min_x"]) for r in metrics if r["crack_tip_min_x"]] or [3.0])
+        if reach < 0.1:
             runs = cut
         else:
             stays = cut
