@@ -17,8 +17,9 @@ Studies:
              runout at a = 1) and V8 PST critical cut length (bisection; full run only), over
              dx x method (transfer, CFL, particles per cell): relative error against wall time
              and particle-steps, log-log, Pareto front marked; observed orders with dx in
-             convergence.csv. --quick runs APIC on V1, V2 and V7 and checks V1 within 3 %, the
-             V2 error falling with dx and within 5 %, V7 within 15 %.
+             convergence.csv. --quick runs APIC on V1, V2, V7 and V8 (dx 0.03) and checks V1
+             within 3 %, the V2 error falling with dx and within 5 %, V7 within 15 %, V8's a_c
+             inside the bisection bracket (0.1, 0.6) m.
   slice      V2 and V7 in 2D and as a thin 3D slice between slip walls: error and cost side by
              side; V7 also at the aspect ratios a = 0.5, 1, 2, 4 (--aspects) at dx 0.005 against
              Lube's law. --quick: V2 at dx 0.01, 2D and 2-cell slice agree within 1 % of c_p.
@@ -432,7 +433,8 @@ CASES = {
            "dx": [0.01, 0.005, 0.0025], "extra": [("apic", 0.00125)], "methods": list(METHODS),
            "quick": [("apic", [0.005])]},  # 20 cells per column: 0.01 is 26 % short
     "v8": {"title": "V8 PST critical cut length (closed form 1.129 m)", "reference": PST_AC,
-           "dx": [0.03, 0.02, 0.015], "methods": ["apic"], "quick": []},
+           "dx": [0.03, 0.02, 0.015], "methods": ["apic"],
+           "quick": [("apic", [0.03])]},  # end to end: a scene change that breaks it fails CI
 }
 
 
@@ -874,6 +876,13 @@ def quick_check(study, rows):
         if not all(abs(r["relative_error"]) < 0.15 for r in runs):
             print(f"check failed: V7 runout errors {[r['relative_error'] for r in runs]} "
                   "outside 15 %")
+            ok = False
+    if "v8" in by_case:
+        # validation.md V8: the flat critical cut length inside the field range 0.1-1 m (the
+        # study's bracket is [0.1, 0.6] m: a value at either end means it never changed side).
+        values = [r["value"] for r in by_case["v8"]]
+        if not all(0.11 < v < 0.59 and r["status"] == "ok" for v, r in zip(values, by_case["v8"])):
+            print(f"check failed: V8 critical cut lengths {values} must lie inside (0.1, 0.6) m")
             ok = False
     return ok
 
