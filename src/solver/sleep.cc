@@ -105,18 +105,17 @@ void updateSleep(World& world, float dt) {
             Vec3f& start = ps.leafQuietVelocity[l];
             if (!slow) {
                 quiet = 0;
-            } else if (quiet == 0) {
-                start = m.meanVelocity;
-                quiet = 1;
             } else {
-                quiet = static_cast<std::uint16_t>(std::min<int>(quiet + 1, 65535));
+                const int next = std::min<int>(quiet + 1, 65535);
                 // Snow that starts to fail from rest (a column beyond its strength) is slow
                 // for its first steps: at rest also means not accelerating, judged over the
                 // whole quiet window so that the noise of single steps averages out.
                 const bool accelerating =
-                    m.anyAwake && quiet >= needed &&
-                    (m.meanVelocity - start).norm() > kWakeAcceleration * dt * float(quiet);
-                if (accelerating) start = m.meanVelocity, quiet = 1;
+                    m.anyAwake && next >= needed &&
+                    (m.meanVelocity - start).norm() > kWakeAcceleration * dt * float(next);
+                const bool restart = quiet == 0 || accelerating;
+                if (restart) start = m.meanVelocity;
+                quiet = static_cast<std::uint16_t>(restart ? 1 : next);
             }
         }
     });
