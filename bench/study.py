@@ -19,7 +19,7 @@ Studies:
              and particle-steps, log-log, Pareto front marked; observed orders with dx in
              convergence.csv. --quick runs APIC on V1, V2, V7 and V8 (dx 0.03) and checks V1
              within 3 %, the V2 error falling with dx and within 5 %, V7 within 15 %, V8's a_c
-             inside the bisection bracket (0.1, 0.6) m.
+             inside the bisection bracket (0.1, 1.0) m.
   slice      V2 and V7 in 2D and as a thin 3D slice between slip walls: error and cost side by
              side; V7 also at the aspect ratios a = 0.5, 1, 2, 4 (--aspects) at dx 0.005 against
              Lube's law. --quick: V2 at dx 0.01, 2D and 2-cell slice agree within 1 % of c_p.
@@ -381,7 +381,7 @@ def column_runout(out, quantile=0.99):
 # validation.md V8 with pst.toml's slab and weak layer (Lambda 0.884 m, tau_p 1 kPa, D 0.5 m,
 # rho 250): a_c = Lambda sqrt(2 tau_p / sigma_n) = 1.129 m. A model, not truth (validation.md).
 PST_AC = 1.129
-PST_BRACKET = (0.1, 0.6)
+PST_BRACKET = (0.1, 1.0)
 PST_BISECTIONS = 5
 
 
@@ -879,10 +879,10 @@ def quick_check(study, rows):
             ok = False
     if "v8" in by_case:
         # validation.md V8: the flat critical cut length inside the field range 0.1-1 m (the
-        # study's bracket is [0.1, 0.6] m: a value at either end means it never changed side).
+        # study's bracket is [0.1, 1.0] m: a value at either end means it never changed side).
         values = [r["value"] for r in by_case["v8"]]
-        if not all(0.11 < v < 0.59 and r["status"] == "ok" for v, r in zip(values, by_case["v8"])):
-            print(f"check failed: V8 critical cut lengths {values} must lie inside (0.1, 0.6) m")
+        if not all(0.11 < v < 0.98 and r["status"] == "ok" for v, r in zip(values, by_case["v8"])):
+            print(f"check failed: V8 critical cut lengths {values} must lie inside (0.1, 1.0) m")
             ok = False
     return ok
 

@@ -577,6 +577,19 @@ TEST_CASE("A saw cut must leave part of its layer", "[scene][errors]") {
     CHECK(errorOf(layer, {"cut.weak.from_x=5.7"}) == "no error");
 }
 
+TEST_CASE("A saw cut is quasi-static unless it says instant", "[scene]") {
+    const std::string layer =
+        kMinimal + "\n[[body]]\nname = \"weak\"\nmaterial = \"slab\"\nshape = \"layer\"\n"
+                   "thickness = 0.1\nx_range = [0, 6]\nz_range = [0, 1]\n"
+                   "\n[[cut]]\nlayer = \"weak\"\nfrom_x = 5.4\nlength = 0.6\n";
+    CHECK(parseScene(layer, kPath).cuts.at(0).saw == Saw::QuasiStatic);
+    const SceneDesc instant = parseScene(layer, kPath, {"cut.weak.saw=\"instant\""});
+    CHECK(instant.cuts.at(0).saw == Saw::Instant);
+    CHECK(parseScene(instant.resolvedToml, kPath).cuts.at(0).saw == Saw::Instant);
+    CHECK(errorOf(layer, {"cut.weak.saw=\"fast\""}) ==
+          "--set: error: cut 1: saw: must be one of \"quasi_static\", \"instant\", got \"fast\"");
+}
+
 TEST_CASE("The as-run TOML reads back as the same scene (fuzzing found two ways it did not)",
           "[scene]") {
     // A --set value that is not UTF-8 would be written altered into scene.toml.

@@ -74,6 +74,24 @@ TEST_CASE("a saw cut removes the weak layer over its length only", "[setup]") {
     REQUIRE(slabInCut > 1000); // the slab above the cut is still there
 }
 
+TEST_CASE("both saws leave the same snow at t = 0 when the scene does not settle", "[setup]") {
+    // Without the settling stage (seconds of it on 40 m of layers) the two saws are the same
+    // cut: the quasi-static one never seeds the cut, the instant one seeds it and removes it
+    // at t = 0. (What settling changes, the overhang's load, is in the PST tests.)
+    auto scene = [](const std::string& saw) {
+        std::string text =
+            layerScene("", "[[cut]]\nlayer = \"weak\"\nfrom_x = 10.0\nlength = 2.5\n" + saw);
+        text.insert(text.find("end_time"), "settle = false\n");
+        return test::sceneFromText(text);
+    };
+    const auto quasiStatic = buildWorld(scene(""));
+    const auto instant = buildWorld(scene("saw = \"instant\"\n"));
+    REQUIRE(quasiStatic->particles.size() == instant->particles.size());
+    for (std::size_t i = 0; i < instant->particles.size(); ++i)
+        REQUIRE(quasiStatic->particles.x[i] == instant->particles.x[i]);
+    CHECK(quasiStatic->particlesPerBody == instant->particlesPerBody);
+}
+
 TEST_CASE("thickness noise has the asked spread and is set by the seed", "[setup]") {
     const std::string noisy = "thickness_noise = { std = 0.25, correlation_length = 2.0 }\n";
     // Put the noise on the slab: insert the key into the second body.

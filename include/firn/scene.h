@@ -20,6 +20,10 @@ enum class Transfer { Apic, Pic, Flip };
 enum class MaterialModel { Elastic, Snow, WeakLayer, Granular };
 enum class TerrainShape { Plane, Profile, Heightfield };
 enum class Boundary { Friction, Slip, Sticky, Voellmy };
+/// How a saw cut is made: before the snowpack settles (a field saw takes seconds: the overhang
+/// takes its load quasi-statically) or all at once on the settled column (a sudden release whose
+/// dynamic overshoot of the overhang's bending lowers the critical cut length).
+enum class Saw { QuasiStatic, Instant };
 enum class BodyShape { Box, Sphere, Layer, Polygon };
 enum class ColorBy { Density, Speed, Failed, Eta };
 
@@ -166,6 +170,7 @@ struct CutDesc {
     std::string layer;   ///< name of a layer body
     double fromX = 0.0;  ///< m
     double length = 0.0; ///< m, along x
+    Saw saw = Saw::QuasiStatic;
     SourceLoc loc;
 };
 

@@ -31,6 +31,7 @@ const Named<Boundary> kBoundaries[] = {{"friction", Boundary::Friction},
                                        {"slip", Boundary::Slip},
                                        {"sticky", Boundary::Sticky},
                                        {"voellmy", Boundary::Voellmy}};
+const Named<Saw> kSaws[] = {{"quasi_static", Saw::QuasiStatic}, {"instant", Saw::Instant}};
 const Named<BodyShape> kBodyShapes[] = {{"box", BodyShape::Box},
                                         {"sphere", BodyShape::Sphere},
                                         {"layer", BodyShape::Layer},
@@ -494,6 +495,7 @@ CutDesc readCut(TableReader& r, const std::vector<BodyDesc>& bodies) {
     }
     r.real("from_x", cut.fromX);
     r.real("length", cut.length, Range::positive());
+    r.choice("saw", cut.saw, kSaws);
     const BodyDesc& layer = *std::find_if(bodies.begin(), bodies.end(),
                                           [&](const BodyDesc& b) { return b.name == cut.layer; });
     const double x0 = layer.xRange[0], x1 = layer.xRange[1];

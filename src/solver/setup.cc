@@ -214,22 +214,19 @@ std::vector<ThicknessField> thicknessFields(const SceneDesc& scene) {
     return fields;
 }
 
-bool insideCut(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
+/// The saw cut of `body` that p lies in, or nullptr.
+const CutDesc* cutAt(const SceneDesc& scene, const BodyDesc& body, const Vec3f& p) {
     for (const CutDesc& cut : scene.cuts)
         if (!body.name.empty() && cut.layer == body.name && p[0] >= cut.fromX &&
             p[0] < cut.fromX + cut.length)
-            return true;
-    return false;
+            return &cut;
+    return nullptr;
 }
 
-/// Seeds particles_per_cell particles in every cell of the body's bounding box: stratified on a
-/// k^d sub-lattice when particles_per_cell = k^d, uniformly random in the cell otherwise, with
-/// positions jittered by `jitter` of a sub-cell.
-/// Visits every seed position of every body, in body order: emit(position, body index, in a
-/// cut).
-/// particles_per_cell per cell of the body's bounding box, stratified on a k^d sub-lattice when
-/// particles_per_cell = k^d (jittered by `jitter` of a sub-cell), uniformly random in the cell
-/// otherwise; seeds inside an earlier body are skipped.
+/// Visits every seed position of every body, in body order: emit(position, body index, in an
+/// instant saw cut). particles_per_cell per cell of the body's bounding box, stratified on a k^d
+/// sub-lattice when particles_per_cell = k^d (jittered by `jitter` of a sub-cell), uniformly
+/// random in the cell otherwise; seeds inside an earlier body or a quasi-static cut are skipped.
 template <typename Emit>
 void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders, Emit&& emit) {
     const int dim = scene.simulation.dimension;
@@ -270,7 +267,11 @@ void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders,
                         bool taken = false;
                         for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
                             taken = regions[e].inside(p);
-                        if (!taken) emit(p, bi, insideCut(scene, body, p));
+                        if (taken) continue;
+                        const CutDesc* cut = cutAt(scene, body, p);
+                        // A quasi-static saw cuts before the snowpack settles: no seed there.
+                        if (cut && cut->saw == Saw::QuasiStatic) continue;
+                        emit(p, bi, cut != nullptr);
                     }
                 }
     }
@@ -501,7 +502,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
                                                scene.simulation.settleTolerance, interrupted});
         w.particles.append(std::move(moving));
     }
-    // The saw cuts a snowpack at rest (after settling): the cut's particles go now.
+    // An instant saw cuts the snowpack at rest (after settling): its cut's particles go now.
     w.particles.extractFlagged(kFlagInCut);
     for (PlasticState& s : w.particles.plastic) s.flags &= ~kFlagOutsideSettling;
     w.particles.bucketByLeaf();

@@ -31,20 +31,22 @@ std::string gravityFor(double slopeDeg) {
 }
 
 /// The PST scene on a 3 m column at dx 0.03 with a cut of `cutLength` at its down-slope end,
-/// run in-process for 0.2 s (the crack crosses 3 m in < 0.1 s when it runs).
-FrameDiagnostics runShortColumn(double slopeDeg, double cutLength) {
+/// run in-process for 0.2 s (the crack crosses 3 m in < 0.1 s when it runs). `saw` is the
+/// cut's saw key ("quasi_static", the scene's default, or "instant").
+FrameDiagnostics runShortColumn(double slopeDeg, double cutLength,
+                                const std::string& saw = "quasi_static") {
     const SceneDesc scene = loadScene(
         kPst, {"grid.dx=0.03", gravityFor(slopeDeg), "body.weak.x_range=[0.0, 3.0]",
                "body.slab.x_range=[0.0, 3.0]", "cut.weak.from_x=" + std::to_string(3.0 - cutLength),
-               "cut.weak.length=" + std::to_string(cutLength)});
+               "cut.weak.length=" + std::to_string(cutLength), "cut.weak.saw=\"" + saw + "\""});
     auto world = buildWorld(scene);
     test::advanceTo(*world, 0.2);
     return computeDiagnostics(*world);
 }
 
 /// True when the crack runs (nearly) to the up-slope end of the 3 m column.
-bool propagates(double slopeDeg, double cutLength) {
-    const FrameDiagnostics d = runShortColumn(slopeDeg, cutLength);
+bool propagates(double slopeDeg, double cutLength, const std::string& saw = "quasi_static") {
+    const FrameDiagnostics d = runShortColumn(slopeDeg, cutLength, saw);
     return !std::isnan(d.crackMinX) && d.crackMinX < 0.1;
 }
 
@@ -76,7 +78,7 @@ double summaryNumber(const std::string& path, const std::string& key) {
     return std::stod(m[1]);
 }
 
-/// Mean crack speed on the full 6 m column of scenes/pst.toml (its 0.6 m cut at the
+/// Mean crack speed on the full 6 m column of scenes/pst.toml (its 0.8 m cut at the
 /// down-slope end) at dx 0.03; `distance` gets how far the crack ran.
 double crackSpeed(double slopeDeg, double& distance) {
     test::TempDir dir("firn-pst");
@@ -101,10 +103,21 @@ TEST_CASE("V8 PST: a short cut stays put, a long cut runs the column", "[validat
     // Below critical the failure stays in the cut tip's neighbourhood: within 4 cells.
     REQUIRE(reach < 0.12);
 
-    const FrameDiagnostics longCut = runShortColumn(0.0, 0.6);
-    INFO("cut 0.6 m: crack from " << longCut.crackMinX << " to " << longCut.crackMaxX << " m");
+    const FrameDiagnostics longCut = runShortColumn(0.0, 0.8);
+    INFO("cut 0.8 m: crack from " << longCut.crackMinX << " to " << longCut.crackMaxX << " m");
     REQUIRE(longCut.crackMinX < 0.1);  // the whole 3 m column
-    REQUIRE(longCut.crackMaxX > 2.35); // starting at the cut tip
+    REQUIRE(longCut.crackMaxX > 2.15); // starting at the cut tip
+}
+
+TEST_CASE("V8 PST: an instant saw needs a shorter cut than the quasi-static one",
+          "[validation][pst]") {
+    // A field saw takes seconds to cut, the overhang's flexural response milliseconds: it takes
+    // its load quasi-statically (the scenes' default saw). Removing the cut at once from the
+    // settled column drops the overhang, whose dynamic overshoot of its bending load fails the
+    // layer at a shorter cut: a_c 0.325-0.35 m instant against 0.50-0.525 m quasi-static
+    // (dx 0.03, flat, README "Snow"). 0.42 m lies 0.07 m (3-4 particle spacings) from both.
+    CHECK(propagates(0.0, 0.42, "instant"));
+    CHECK_FALSE(propagates(0.0, 0.42, "quasi_static"));
 }
 
 TEST_CASE("V8 PST: the critical cut length is field-like and falls with slope",
@@ -118,9 +131,10 @@ TEST_CASE("V8 PST: the critical cut length is field-like and falls with slope",
                          << ", " << steep.second << "] m: ratio " << ratio << " (closed form "
                          << closedRatio << ")");
     // validation.md V8: a_c within the field range 0.1-1 m on flat ground and falling with
-    // slope (measured 0.325-0.35 and 0.275-0.30 m, midpoints of 2.5 cm brackets). V8's third
-    // gate, a_c(30)/a_c(0) within 30 % of the closed form's 0.355, is NOT met (0.85; README
-    // "Snow"): it was met only while the floor's friction (0.5 < tan 30) let the column slide.
+    // slope (measured with the quasi-static saw 0.50-0.525 and 0.45-0.475 m, midpoints of 2.5 cm
+    // brackets). V8's third gate, a_c(30)/a_c(0) within 30 % of the closed form's 0.355, is NOT
+    // met (0.90; README "Snow"): it was met only while the floor's friction (0.5 < tan 30) let
+    // the column slide.
     CHECK(acFlat > 0.1);
     CHECK(acFlat < 1.0);
     CHECK(acSteep < acFlat);
@@ -149,10 +163,11 @@ TEST_CASE("V8 PST: the steady crack speed is field-like on flat ground and faste
     const double steep = crackSpeed(30.0, steepDistance);
     INFO("flat: " << flat << " m/s over " << flatDistance << " m; 30 deg: " << steep << " m/s over "
                   << steepDistance << " m");
-    // The tracker counts the tip's travel where it advances faster than 10 m/s: 5.3 m of the 5.4
-    // flat, 4.9 m on 30 deg, where the crack leaves the cut slowly and then runs the column.
+    // The tracker counts the tip's travel where it advances faster than 10 m/s: 4.95 m of the
+    // 5.2 flat; 4.35 m on 30 deg, where cracks nucleate ahead of the tip (1.9 m in one 5 ms
+    // frame) and the tracked end switches between the crack's two ends (README "Snow").
     REQUIRE(flatDistance > 4.5);
-    REQUIRE(steepDistance > 4.5);
+    REQUIRE(steepDistance > 4.0);
     // validation.md V8 flat PST gate: 20-60 m/s (field: 20-30 m/s, Bergfeld et al. 2021;
     // 36 +- 6 to 49 +- 5 m/s, Bergfeld et al. 2022); on a slope the slab's weight drives the
     // crack too: faster than on flat ground.
