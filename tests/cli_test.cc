@@ -471,6 +471,20 @@ TEST_CASE("firn check prints each material's values and where each came from",
     CHECK(shows("softening +50 +--set"));
 }
 
+TEST_CASE("firn check says where each saw cut is and which saw makes it", "[cli]") {
+    TempDir dir("firn-cli-cut");
+    const std::string path = dir.path() + "/cut.toml";
+    writeText(path, kDensityOnly + "\n[[cut]]\nlayer = \"weak\"\nfrom_x = 0.8\nlength = 0.25\n");
+    const Outcome quasiStatic = runFirn({"check", path}, dir);
+    INFO(quasiStatic.out << quasiStatic.err);
+    REQUIRE(quasiStatic.code == 0);
+    CHECK(quasiStatic.out.find("\n  cut in layer \"weak\": x in [0.8, 1.05] m, quasi-static saw "
+                               "(cut before settling)\n") != std::string::npos);
+    const Outcome instant = runFirn({"check", path, "--set", "cut.weak.saw=\"instant\""}, dir);
+    CHECK(instant.out.find("\n  cut in layer \"weak\": x in [0.8, 1.05] m, instant saw (removed "
+                           "at t = 0)\n") != std::string::npos);
+}
+
 TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame", "[cli]") {
     TempDir dir("firn-cli-run");
     const std::string scene = dir.path() + "/tiny.toml";

@@ -626,8 +626,14 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
             : scene.simulation.gravityRamp > 0
                 ? "gravity ramped over " + std::to_string(scene.simulation.gravityRamp) + " s"
                 : "as seeded, full gravity at t = 0")
-        << "\n"
-        << "  output: " << scene.output.directory << "\n";
+        << "\n";
+    for (const CutDesc& cut : scene.cuts)
+        out << "  cut in layer \"" << cut.layer << "\": x in [" << formatNumber(cut.fromX) << ", "
+            << formatNumber(cut.fromX + cut.length) << "] m, "
+            << (cut.saw == Saw::QuasiStatic ? "quasi-static saw (cut before settling)"
+                                            : "instant saw (removed at t = 0)")
+            << "\n";
+    out << "  output: " << scene.output.directory << "\n";
     return out.str();
 }
 
