@@ -3,14 +3,16 @@
 at several grid spacings and slope angles, beside the closed form of Gaume et al. (2017a).
 
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
-        [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only] [--out DIR]
+        [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
+        [--speed-column 6] [--out DIR]
 
 For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm) on a 3 m column with the cut at the
 down-slope end, as in the field (criterion "run": the crack reaches the up-slope end within
 0.2 s; "onset": it grows more than 0.3 m past the cut), then the steady crack speed on the full
-6 m column with a 0.8 m cut at its down-slope end (not with --ac-only), as summary.json's
-mean_crack_speed and as the up-slope end's speed over the column less 0.5 m at each end
-(front_speed), from 1000 frames per second. The saw is the scenes'
+6 m column (--speed-column) with a 0.8 m cut at its down-slope end (not with --ac-only), as
+summary.json's mean_crack_speed, as the up-slope end's speed over the column less 0.5 m at each
+end (front_speed) and over its last 4 m before that margin (late_front_speed: on a 12 m column,
+after 6.7 m of travel), from 1000 frames per second. The saw is the scenes'
 (quasi-static unless --set cut.weak.saw="instant"). A slope tilts gravity,
 g (sin psi, -cos psi), so that x runs down the slope. --set passes scene overrides to every run.
 Writes results.csv into bench/results/pst-resolution/ (or --out) and prints a table. The weak
@@ -67,12 +69,12 @@ def up_slope_reach(out):
     return reach
 
 
-def front_speed(out, tip, margin=0.5):
-    """Speed of the crack's up-slope end (crack_tip_min_x) over the column less `margin` at each
-    end: the distance over the time between its first passes of tip - margin and margin,
-    interpolated between frames. Unlike mean_crack_speed (the tracked end's pass-time mean) it
-    follows the up-slope end alone, so daughter cracks ahead of the tip on steep slopes count
-    as the advance they are. None when the crack does not get that far."""
+def front_speed(out, start, end):
+    """Speed of the crack's up-slope end (crack_tip_min_x) from x = start to x = end < start:
+    the distance over the time between its first passes of the two, interpolated between
+    frames. Unlike mean_crack_speed (the tracked end's pass-time mean) it follows the up-slope
+    end alone, so daughter cracks ahead of the tip on steep slopes count as the advance they
+    are. None when the crack does not get that far."""
     rows = []
     with open(os.path.join(out, "metrics.csv")) as f:
         for row in csv.DictReader(f):
@@ -85,10 +87,10 @@ def front_speed(out, tip, margin=0.5):
                 return t1 if t0 is None or m0 == m1 else t0 + (t1 - t0) * (m0 - x) / (m0 - m1)
         return None
 
-    t_start, t_end = first_pass(tip - margin), first_pass(margin)
+    t_start, t_end = first_pass(start), first_pass(end)
     if t_start is None or t_end is None or t_end <= t_start:
         return None
-    return (tip - 2 * margin) / (t_end - t_start)
+    return (start - end) / (t_end - t_start)
 
 
 def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5):
@@ -119,7 +121,11 @@ def main():
     parser.add_argument("--set", action="append", default=[], dest="overrides",
                         help="scene override for every run (repeatable)")
     parser.add_argument("--criterion", choices=["run", "onset"], default="run")
-    parser.add_argument("--ac-only", action="store_true", help="skip the crack-speed run")
+    only = parser.add_mutually_exclusive_group()
+    only.add_argument("--ac-only", action="store_true", help="skip the crack-speed run")
+    only.add_argument("--speed-only", action="store_true", help="skip the critical cut")
+    parser.add_argument("--speed-column", type=float, default=6.0,
+                        help="length of the speed run's column, m (the cut is 0.8 m)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "pst-resolution"))
     args = parser.parse_args()
     results_dir = args.out
@@ -128,23 +134,31 @@ def main():
     with tempfile.TemporaryDirectory() as work:
         for dx in args.dx:
             for slope in args.slopes:
-                stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
-                                                 args.criterion)
                 row = {"dx": dx, "slope": slope, "cells_in_weak_layer": round(0.06 / dx, 2),
-                       "criterion": args.criterion, "overrides": " ".join(args.overrides),
-                       "a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
-                       "a_c_closed_form": round(closed_form_ac(slope), 4),
-                       "wall_seconds_ac": round(t_ac, 1)}
+                       "criterion": args.criterion, "overrides": " ".join(args.overrides)}
+                if not args.speed_only:
+                    stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
+                                                     args.criterion)
+                    row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
+                                "a_c_closed_form": round(closed_form_ac(slope), 4),
+                                "wall_seconds_ac": round(t_ac, 1)})
                 if not args.ac_only:
                     speed_out = os.path.join(work, f"speed-{dx}-{slope}")
+                    column, tip = args.speed_column, args.speed_column - 0.8
                     summary, t_speed = run(args.firn, [f"grid.dx={dx}", gravity(slope),
-                                                       "cut.weak.from_x=5.2", "cut.weak.length=0.8",
-                                                       "simulation.end_time=0.3",
+                                                       f"body.weak.x_range=[0.0, {column}]",
+                                                       f"body.slab.x_range=[0.0, {column}]",
+                                                       f"cut.weak.from_x={tip}",
+                                                       "cut.weak.length=0.8",
+                                                       f"simulation.end_time={0.05 * column}",
                                                        "simulation.frame_rate=1000"],
                                            speed_out, args.overrides)
-                    front = front_speed(speed_out, 5.2)
-                    row.update({"steady_crack_speed": round(summary["mean_crack_speed"], 2),
+                    front = front_speed(speed_out, tip - 0.5, 0.5)
+                    late = front_speed(speed_out, 4.5, 0.5)
+                    row.update({"column": column,
+                                "steady_crack_speed": round(summary["mean_crack_speed"], 2),
                                 "front_speed": round(front, 2) if front else "",
+                                "late_front_speed": round(late, 2) if late else "",
                                 "propagation_distance":
                                     round(summary["crack_propagation_distance"], 3),
                                 "particles": summary["particles"],
