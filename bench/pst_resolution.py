@@ -59,14 +59,16 @@ def closed_form_ac(slope, E=5e6, nu=0.2, rho=250.0, D=0.5, D_wl=0.06, G_wl=0.2e6
     return lam * (-tau_g + math.sqrt(tau_g ** 2 + 2 * sigma_n * (tau_p - tau_g))) / sigma_n
 
 
+def up_slope_track(out):
+    """(time, crack_tip_min_x) of every frame of metrics.csv with a crack: its up-slope end."""
+    with open(os.path.join(out, "metrics.csv")) as f:
+        return [(float(row["time"]), float(row["crack_tip_min_x"]))
+                for row in csv.DictReader(f) if row["crack_tip_min_x"]]
+
+
 def up_slope_reach(out):
     """Smallest crack_tip_min_x in metrics.csv (inf when no crack): how far up-slope it ran."""
-    reach = math.inf
-    with open(os.path.join(out, "metrics.csv")) as f:
-        for row in csv.DictReader(f):
-            if row["crack_tip_min_x"]:
-                reach = min(reach, float(row["crack_tip_min_x"]))
-    return reach
+    return min((x for _, x in up_slope_track(out)), default=math.inf)
 
 
 def front_speed(out, start, end):
@@ -75,11 +77,7 @@ def front_speed(out, start, end):
     frames. Unlike mean_crack_speed (the tracked end's pass-time mean) it follows the up-slope
     end alone, so daughter cracks ahead of the tip on steep slopes count as the advance they
     are. None when the crack does not get that far."""
-    rows = []
-    with open(os.path.join(out, "metrics.csv")) as f:
-        for row in csv.DictReader(f):
-            if row["crack_tip_min_x"]:
-                rows.append((float(row["time"]), float(row["crack_tip_min_x"])))
+    rows = up_slope_track(out)
 
     def first_pass(x):
         for (t0, m0), (t1, m1) in zip([(None, math.inf)] + rows[:-1], rows):
