@@ -590,6 +590,36 @@ TEST_CASE("A saw cut is quasi-static unless it says instant", "[scene]") {
           "--set: error: cut 1: saw: must be one of \"quasi_static\", \"instant\", got \"fast\"");
 }
 
+TEST_CASE("A layer's thickness is a number or a profile along x, not both", "[scene][errors]") {
+    const std::string layer =
+        kMinimal + "\n[[body]]\nname = \"slab2\"\nmaterial = \"slab\"\nshape = \"layer\"\n"
+                   "x_range = [0, 20]\nz_range = [0, 1]\n"
+                   "thickness_profile = [[0.0, 0.3], [10.0, 0.5], [20.0, 0.3]]\n";
+    const SceneDesc scene = parseScene(layer, kPath);
+    const BodyDesc& body = scene.bodies.back();
+    REQUIRE(body.thicknessProfile.size() == 3);
+    CHECK(body.thicknessProfile[1][0] == 10.0);
+    CHECK(body.thicknessProfile[1][1] == 0.5);
+    CHECK(body.thickness == 0.5); // the largest, which bounds the layer's seeding box
+    CHECK(parseScene(scene.resolvedToml, kPath).bodies.back().thicknessProfile ==
+          body.thicknessProfile);
+    CHECK(errorOf(layer, {"body.slab2.thickness=0.4"}) ==
+          "scenes/test.toml:23:21: error: body \"slab2\": thickness_profile: give thickness or "
+          "thickness_profile, not both");
+    CHECK(errorOf(layer, {"body.slab2.thickness_profile=[[0.0, 0.3], [5.0, 0.0]]"}) ==
+          "--set: error: body \"slab2\": thickness_profile: point 2 thickness must be > 0, got 0");
+    CHECK(errorOf(layer, {"body.slab2.thickness_profile=[[0.0, 0.3], [5.0]]"}) ==
+          "--set: error: body \"slab2\": thickness_profile: point 2 must be an array [x, "
+          "thickness]");
+    CHECK(errorOf(layer, {"body.slab2.thickness_profile=[[5.0, 0.3], [5.0, 0.4]]"}) ==
+          "--set: error: body \"slab2\": thickness_profile: x must increase strictly, got [5, "
+          "0.3] then [5, 0.4]");
+    std::string bare = layer;
+    bare.erase(bare.find("thickness_profile"));
+    CHECK(errorOf(bare) == "scenes/test.toml:17:1: error: body \"slab2\": thickness: missing "
+                           "required key for shape \"layer\" (or thickness_profile)");
+}
+
 TEST_CASE("The as-run TOML reads back as the same scene (fuzzing found two ways it did not)",
           "[scene]") {
     // A --set value that is not UTF-8 would be written altered into scene.toml.

@@ -123,6 +123,30 @@ TEST_CASE("thickness noise has the asked spread and is set by the seed", "[setup
     REQUIRE(buildWorld(test::sceneFromText(reseeded))->particles.size() != ps.size());
 }
 
+TEST_CASE("a thickness profile sets the layer's thickness along x", "[setup]") {
+    // The slab 0.3 m at x = 0, 0.7 m at x = 20, 0.3 m from x = 40 on (deepest mid-path).
+    std::string text = layerScene("");
+    text.replace(text.find("thickness = 0.5\n"), 16,
+                 "thickness_profile = [[0.0, 0.3], [20.0, 0.7], [40.0, 0.3]]\n");
+    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    const ParticleSet& ps = world->particles;
+    // Slab thickness per 1 m strip of x: the highest particle above the slope minus the weak
+    // layer's 0.1 m (the seeds' top lies within a quarter cell, 1.25 cm, of the surface).
+    std::map<int, double> top;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const int strip = int(std::floor(ps.x[i][0]));
+        top[strip] = std::max(top.count(strip) ? top[strip] : 0.0, aboveSlope(ps.x[i]));
+    }
+    auto profile = [](double x) { return x < 20.0 ? 0.3 + 0.02 * x : 0.7 - 0.02 * (x - 20.0); };
+    for (const int strip : {2, 10, 19, 30, 37}) {
+        INFO("strip x = " << strip << " m");
+        // The strip's highest seed sits under the surface at the strip's thicker end: allow one
+        // strip's change (0.02 m) plus the quarter cell.
+        const double thick = std::max(profile(strip), profile(strip + 1));
+        CHECK(top[strip] - 0.1 == Approx(thick).margin(0.035));
+    }
+}
+
 TEST_CASE("a body that seeds nothing or lies inside the terrain is a scene error", "[setup]") {
     const std::string ball = "[[material]]\nname = \"ice\"\nmodel = \"elastic\"\n"
                              "[[body]]\nname = \"ball\"\nmaterial = \"ice\"\nshape = \"sphere\"\n";

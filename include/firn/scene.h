@@ -149,6 +149,9 @@ struct BodyDesc {
     double thickness = 0.0; ///< layer, polygon, m, normal to the ground (polygon: 0 = attribute)
     std::array<double, 2> xRange = {0, 0};
     std::array<double, 2> zRange = {0, 0};
+    /// layer: [[x, thickness], ...] (m): the thickness along x, linear between the points and
+    /// constant past the ends; replaces `thickness` (a slab deepest mid-path, Gaume et al. 2019).
+    std::vector<std::array<double, 2>> thicknessProfile;
     LayerNoiseDesc thicknessNoise;
     /// polygon: a vector file (shapefile, GeoPackage, GeoJSON) of release areas in the DEM's
     /// coordinates, and the attribute that holds each area's thickness (m).

@@ -233,8 +233,11 @@ bool TableReader::interval(std::string_view key, std::array<double, 2>& out) {
     return true;
 }
 
-bool TableReader::polyline(std::string_view key, std::vector<std::array<double, 2>>& out) {
-    const toml::node* node = typed(key, &toml::node::is_array, "an array of [x, y] points");
+bool TableReader::polyline(std::string_view key, std::vector<std::array<double, 2>>& out,
+                           const std::string& yName) {
+    const std::string pair = "[x, " + yName + "]";
+    const toml::node* node =
+        typed(key, &toml::node::is_array, ("an array of " + pair + " points").c_str());
     if (!node) return false;
     const toml::array& array = *node->as_array();
     if (array.size() < 2) {
@@ -243,10 +246,10 @@ bool TableReader::polyline(std::string_view key, std::vector<std::array<double, 
     std::vector<std::array<double, 2>> points;
     for (const toml::node& item : array) {
         const std::string what = "point " + std::to_string(points.size() + 1);
-        const toml::array* pair = item.as_array();
-        if (!pair || pair->size() != 2) fail(item, key, what + " must be an array [x, y]");
+        const toml::array* xy = item.as_array();
+        if (!xy || xy->size() != 2) fail(item, key, what + " must be an array " + pair);
         points.push_back(
-            {number((*pair)[0], key, what + " x"), number((*pair)[1], key, what + " y")});
+            {number((*xy)[0], key, what + " x"), number((*xy)[1], key, what + " " + yName)});
         if (points.size() > 1 && !(points.back()[0] > points[points.size() - 2][0])) {
             fail(item, key,
                  "x must increase strictly, got " + formatPoint(points[points.size() - 2]) +

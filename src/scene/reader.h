@@ -108,8 +108,10 @@ public:
     bool vector(std::string_view key, Vec3d& out);
     /// [a, b] with a < b.
     bool interval(std::string_view key, std::array<double, 2>& out);
-    /// [[x, y], ...], at least two points, x strictly increasing.
-    bool polyline(std::string_view key, std::vector<std::array<double, 2>>& out);
+    /// [[x, y], ...], at least two points, x strictly increasing; `yName` names the second
+    /// coordinate in messages ("thickness": "must be an array [x, thickness]").
+    bool polyline(std::string_view key, std::vector<std::array<double, 2>>& out,
+                  const std::string& yName = "y");
     /// A list of distinct strings, each one of `allowed`.
     bool stringList(std::string_view key, std::vector<std::string>& out,
                     const std::vector<std::string>& allowed);

@@ -95,6 +95,7 @@ const ShapeKey<BodyShape> kBodyShapeKeys[] = {{BodyShape::Box, "min"},
                                               {BodyShape::Layer, "x_range"},
                                               {BodyShape::Layer, "z_range"},
                                               {BodyShape::Layer, "thickness_noise"},
+                                              {BodyShape::Layer, "thickness_profile"},
                                               {BodyShape::Polygon, "on_top_of"},
                                               {BodyShape::Polygon, "thickness"},
                                               {BodyShape::Polygon, "thickness_noise"},
@@ -421,11 +422,32 @@ void readThicknessNoise(TableReader& r, BodyDesc& body) {
     }
 }
 
+// `thickness` (m) or `thickness_profile` ([[x, m], ...]), exactly one of them.
+void readLayerThickness(TableReader& r, BodyDesc& body) {
+    if (r.has("thickness") && r.has("thickness_profile")) {
+        r.failAt("thickness_profile", "give thickness or thickness_profile, not both");
+    }
+    if (!r.has("thickness_profile")) {
+        r.require({"thickness"}, "shape \"layer\" (or thickness_profile)");
+        r.real("thickness", body.thickness, Range::positive());
+        return;
+    }
+    r.polyline("thickness_profile", body.thicknessProfile, "thickness");
+    for (std::size_t k = 0; k < body.thicknessProfile.size(); ++k) {
+        if (!(body.thicknessProfile[k][1] > 0.0)) {
+            r.failAt("thickness_profile", "point " + std::to_string(k + 1) +
+                                              " thickness must be > 0, got " +
+                                              formatNumber(body.thicknessProfile[k][1]));
+        }
+        body.thickness = std::max(body.thickness, body.thicknessProfile[k][1]);
+    }
+}
+
 void readLayer(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& earlier) {
     const bool is3d = r.context().dimension == 3;
-    r.require({"thickness", "x_range"}, "shape \"layer\"");
+    r.require({"x_range"}, "shape \"layer\"");
     if (is3d) r.require({"z_range"}, "shape \"layer\"");
-    r.real("thickness", body.thickness, Range::positive());
+    readLayerThickness(r, body);
     r.interval("x_range", body.xRange);
     if (is3d) {
         r.interval("z_range", body.zRange);

@@ -60,16 +60,19 @@ float standardNormal(std::uint64_t& state) {
 /// variance with correlation exp(-r^2 / (2 l^2)), built from random Fourier modes (Shinozuka and
 /// Deodatis 1991): f = sqrt(2/N) sum cos(k_i . (x, z) + phi_i), k_i ~ N(0, 1/l^2) per axis.
 /// Clamped at 5 % of t0 so that a layer never vanishes. Gaume et al. 2019 use ~25 % and 10 m.
-/// A polygon body's t0 is its release area's thickness at (x, z), 0 outside every area.
+/// A polygon body's t0 is its release area's thickness at (x, z), 0 outside every area; a layer
+/// with a thickness_profile takes t0 from the profile at x.
 struct ThicknessField {
     static constexpr int kModes = 64;
     double t0 = 0.0, std = 0.0; ///< t0: the largest thickness of a polygon body's areas
-    std::vector<std::array<double, 3>> modes; // kx, kz, phase
-    std::vector<ReleaseArea> areas;           // polygon bodies
+    std::vector<std::array<double, 3>> modes;   // kx, kz, phase
+    std::vector<ReleaseArea> areas;             // polygon bodies
+    std::vector<std::array<double, 2>> profile; // a layer's thickness_profile
 
     static ThicknessField of(const BodyDesc& body, std::uint64_t seed, std::size_t index, int dim) {
         ThicknessField f;
-        f.t0 = body.thickness;
+        f.t0 = body.thickness; // a profile's largest thickness (the parser sets it)
+        f.profile = body.thicknessProfile;
         if (body.shape == BodyShape::Polygon) {
             f.areas = readReleaseAreas(body);
             f.t0 = 0.0;
@@ -88,10 +91,21 @@ struct ThicknessField {
     }
     /// The thickness without noise at (x, z).
     double baseAt(double x, double z) const {
+        if (!profile.empty()) return profileAt(x);
         if (areas.empty()) return t0;
         for (const ReleaseArea& a : areas)
             if (a.contains(x, z)) return a.thickness;
         return 0.0;
+    }
+    /// The thickness profile at x: linear between its points, constant past its ends.
+    double profileAt(double x) const {
+        if (x <= profile.front()[0]) return profile.front()[1];
+        if (x >= profile.back()[0]) return profile.back()[1];
+        const auto after = std::upper_bound(profile.begin(), profile.end(), x,
+                                            [](double v, const auto& p) { return v < p[0]; });
+        const auto& [xa, ta] = *(after - 1);
+        const auto& [xb, tb] = *after;
+        return ta + (tb - ta) * (x - xa) / (xb - xa);
     }
     double at(double x, double z) const {
         const double base = baseAt(x, z);
