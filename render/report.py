@@ -342,6 +342,33 @@ def failure_profiles_2d(run, path):
 
 # Crack, flow, McClung & Gauer -----------------------------------------------------------------
 
+def tip_steps(run):
+    """The leading crack tip timed to the step (summary.json crack_tip_steps): times, x; or None
+    for runs written before it existed."""
+    steps = run.summary.get("crack_tip_steps") or []
+    if len(steps) < 2:
+        return None
+    return (np.array([s["time"] for s in steps], dtype=float),
+            np.array([s["x"] for s in steps], dtype=float))
+
+
+def windowed_speed(times, xs, window):
+    """Speed of a monotone tip over each `window` metres of its advance, at the window's middle:
+    (middle x, m/s). A jump (a crack that started on its own ahead joining) shows as a fast
+    window, not as an infinite speed."""
+    travel = np.abs(xs - xs[0])
+    mids, speeds = [], []
+    for k in range(len(xs)):
+        j = np.searchsorted(travel, travel[k] + window)
+        if j >= len(xs):
+            break
+        dt = times[j] - times[k]
+        if dt > 0:
+            mids.append(0.5 * (xs[k] + xs[j]))
+            speeds.append((travel[j] - travel[k]) / dt)
+    return np.array(mids), np.array(speeds)
+
+
 def crack_chart(run, path):
     """Fig. 3 bottom: crack tip against time, crack speed against position along the slope."""
     t, tip, speed = run.column("time"), run.column("crack_tip_x"), run.column("crack_speed")
@@ -354,7 +381,11 @@ def crack_chart(run, path):
         a = fig.add_subplot(grid[:, 0])
         b = fig.add_subplot(grid[:2, 1])
         g = fig.add_subplot(grid[2, 1], sharex=b)
-    a.plot(t, tip, "o-", ms=3, color="#1f77b4", label="leading tip")
+    a.plot(t, tip, "o-", ms=3, color="#1f77b4", label="leading tip (frames)")
+    steps = tip_steps(run)
+    if steps is not None:
+        a.step(steps[0], steps[1], where="post", color="#ff7f0e", lw=1.0,
+               label="leading tip, timed to the step")
     for name, style in (("crack_tip_min_x", ":"), ("crack_tip_max_x", "--")):
         if name in run.metrics:
             a.plot(t, run.metrics[name], style, color="0.4", lw=1,
@@ -367,6 +398,11 @@ def crack_chart(run, path):
     moving = np.isfinite(speed) & np.isfinite(tip)
     # Points, not a line: a crack that runs both ways would be joined across the slope.
     b.plot(tip[moving], speed[moving], "o", ms=3.5, color="#d62728", label="between frames")
+    if steps is not None:
+        mids, speeds = windowed_speed(steps[0], steps[1], 0.5)
+        if mids.size:
+            b.plot(mids, speeds, ".", ms=3, color="#ff7f0e",
+                   label="over 0.5 m of advance (timed to the step)")
     for k, f in enumerate(run.slab_fractures):
         b.axvspan(f["x"] - run.dx / 2, f["x"] + run.dx / 2, color=SLAB_FRACTURE_COLOUR,
                   alpha=0.6, lw=0, label="slab fracture" if k == 0 else None)
@@ -403,7 +439,11 @@ def slab_fracture_chart(run, path):
     fractures = run.slab_fractures
     fig, (a, b, c) = plt.subplots(1, 3, figsize=(16, 4.4), constrained_layout=True)
     t, tip = run.column("time"), run.column("crack_tip_x")
-    if np.isfinite(tip).any():
+    steps = tip_steps(run)
+    if steps is not None:
+        a.step(steps[0], steps[1], where="post", color="#1f77b4", lw=1.2,
+               label="weak-layer crack tip (timed to the step)")
+    elif np.isfinite(tip).any():
         a.plot(t, tip, "-", color="#1f77b4", lw=1.2, label="weak-layer crack tip")
     if fractures:
         ft = [f["time"] for f in fractures]
@@ -750,8 +790,12 @@ def write_report(run, quiet):
         sections.append(figure(written[-1], (
             "Left: the crack tip (leading end of the weak-layer region with anticrack strain "
             "η > 0, metrics.csv <code>crack_tip_x</code>) and the extent's two ends against "
-            "time. Right: the crack speed (the tip's advance between frames, "
-            "<code>crack_speed</code>) against the tip position along the slope, as in Gaume "
+            "time; orange: the leading tip timed to the step (summary.json "
+            "<code>crack_tip_steps</code>, from each weak-layer particle's crack time: a jump "
+            "is a crack that started on its own ahead of the tip joining it). Right: the crack "
+            "speed (the tip's advance between frames, <code>crack_speed</code>; orange: over "
+            "each 0.5 m of the step-timed tip's advance) against the tip position along the "
+            "slope, as in Gaume "
             "et al. (2019), Fig. 3 bottom; dashed: the steady mean speed of summary.json; grey "
             "bars: slab fractures (summary.json <code>slab_fractures</code>), one cell wide.")))
     else:

@@ -109,6 +109,42 @@ TEST_CASE("crack tracker interpolates its tip in time and knows its direction", 
     CHECK(crack.tipAt(0.5) == Approx(3.5));  // after the last frame: the last tip
 }
 
+TEST_CASE("the crack tip is timed to the step from the cells' crack times", "[diagnostics]") {
+    // Frames 0.02 s apart, cells of 0.1 m. The crack starts at x = 5.05 at 0.101 s and runs
+    // up-slope, one cell per ms from 0.113 s, to x = 4.05 at 0.129 s, where it waits; a cell at
+    // x = 3.55 cracked on its own at 0.105 s (4 cells beyond: more than kCrackGapCells), and the
+    // crack reaches it at 0.138 s (x = 3.95): frames alone interpolate between 0.12 and 0.14 s.
+    auto frame = [](const std::vector<std::pair<std::int64_t, float>>& cells) {
+        FrameDiagnostics d = crackFrame((double(cells.front().first) + 0.5) * 0.1,
+                                        (double(cells.back().first) + 0.5) * 0.1);
+        d.crackCellWidth = 0.1;
+        for (const auto& [cell, time] : cells)
+            d.crackCells.push_back(cell), d.crackCellTimes.push_back(time);
+        return d;
+    };
+    CrackTracker crack;
+    std::vector<std::pair<std::int64_t, float>> cells{{49, 0.105f}, {50, 0.101f}, {51, 0.104f}};
+    crack.update(frame(cells), 0.11);
+    cells.insert(cells.begin(), {48, 0.113f});
+    crack.update(frame(cells), 0.12);
+    for (int c = 47; c >= 40; --c) cells.insert(cells.begin(), {c, 0.122f + 0.001f * (47 - c)});
+    cells.insert(cells.begin(), {{35, 0.105f}, {39, 0.138f}});
+    crack.update(frame(cells), 0.14);
+    REQUIRE(crack.direction() == -1);
+    CHECK(std::isnan(crack.tipAt(0.1)));
+    CHECK(crack.tipAt(0.1015) == Approx(5.05));
+    CHECK(crack.tipAt(0.1055) == Approx(4.95));
+    CHECK(crack.tipAt(0.1255) == Approx(4.45));
+    CHECK(crack.tipAt(0.137) == Approx(4.05));  // waiting: the cell ahead has not joined yet
+    CHECK(crack.tipAt(0.1385) == Approx(3.55)); // 3.95 cracked, within reach of 3.55
+    CHECK(crack.tipAt(1.0) == Approx(3.55));
+    // The same frames without crack times: interpolated between frames.
+    CrackTracker coarse;
+    for (auto [t, lo] : {std::pair{0.11, 4.95}, {0.12, 4.85}, {0.14, 3.55}})
+        coarse.update(crackFrame(lo, 5.15), t);
+    CHECK(coarse.tipAt(0.13) == Approx(4.2));
+}
+
 TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",
           "[diagnostics]") {
     auto world =

@@ -18,8 +18,9 @@
 namespace firn {
 
 /// Bump when the payload's layout changes; older files are then refused with a message.
-// 2: peak fields and the COM path; 3: crack ends; 4: the leaves' velocity at the start of quiet
-constexpr std::uint32_t kCheckpointFormat = 4;
+// 2: peak fields and the COM path; 3: crack ends; 4: the leaves' velocity at the start of quiet;
+// 5: the crack's ends timed to the step
+constexpr std::uint32_t kCheckpointFormat = 5;
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

@@ -35,6 +35,10 @@ struct FrameDiagnostics {
     bool hasWeakLayer = false;
     /// Cells along x (width dx) that hold weak-layer particles with eta > 0, sorted, unique.
     std::vector<std::int64_t> crackCells;
+    /// Per crackCells entry: the earliest time (s) a particle of the cell cracked
+    /// (PlasticState::fractureTime); and the cells' width (dx), m.
+    std::vector<float> crackCellTimes;
+    double crackCellWidth = 0;
     /// Extent along x of the crack: the largest run of crackCells with gaps of at most
     /// kCrackGapCells (isolated particles that yielded elsewhere are not the crack); NaN while
     /// none. Cell centres, m.
@@ -66,9 +70,16 @@ public:
     double tip() const { return mTip; }     ///< m, NaN before the crack appears
     double speed() const { return mSpeed; } ///< m/s since the previous frame, NaN if none
     double maxSpeed() const { return mMaxSpeed; }
-    /// Leading tip at `time`, interpolated linearly between frames (the last tip after the last
-    /// frame), m; NaN before the crack appears.
+    /// Leading tip at `time`, m; NaN before the crack appears, the last tip after the last frame.
+    /// Timed to the step where the frames carry crackCellTimes: the end of the extent as the
+    /// cells cracked, step by step (a cell that cracked on its own ahead of the end joins when
+    /// the end comes within kCrackGapCells of it); otherwise interpolated linearly between frames.
     double tipAt(double time) const;
+    /// The leading end (direction()) timed to the step: (time, x) at each step it moved; empty
+    /// where the frames carry no crackCellTimes.
+    const std::vector<std::pair<double, double>>& tipSteps() const {
+        return mDirection < 0 ? mUpSteps : mDownSteps;
+    }
     /// Direction of travel of the leading tip along x: +1 down-slope, -1 up-slope, 0 before the
     /// crack appears.
     int direction() const { return mDirection; }
@@ -93,6 +104,11 @@ private:
     double mUpPropagated = 0, mDownPropagated = 0;   // m, advances at kMinCrackSpeed or faster
     std::vector<std::pair<double, double>> mHistory; // (time, leading tip x)
     std::vector<std::pair<double, double>> mUpHistory, mDownHistory; // (time, min / max x)
+    /// (time, min / max x) of the extent at each step it grew, from the cells' crack times.
+    std::vector<std::pair<double, double>> mUpSteps, mDownSteps;
+    /// Appends to mUpSteps / mDownSteps the growth since the last frame (all of it for a new
+    /// crack).
+    void recordSteps(const FrameDiagnostics& d, bool fresh);
 };
 
 /// Weak-layer cracks run at 20-150 m/s (field PSTs, Gaume et al. 2019); an end of the failed

@@ -35,7 +35,8 @@ struct PlasticState {
     float eta = 0.f; ///< anticrack strain since t = 0, eta - eta0 (output `eta`)
     std::uint32_t flags = 0;
     /// Snow slab: simulated time (s) of the step in which slabFractured() first held, set with
-    /// kFlagSlabFractured (0 until then).
+    /// kFlagSlabFractured; weak layer: of the step in which eta first exceeded 0, set with
+    /// kFlagCracked (the crack's arrival, timed to the step). 0 until then.
     float fractureTime = 0.f;
 };
 constexpr std::uint32_t kFlagFailed = 1u;    ///< yield reached at least once
@@ -55,6 +56,8 @@ constexpr std::uint32_t kFlagSlabFractured = 32u;
 constexpr std::uint32_t kFlagMoved = 64u;
 /// Left the simulated domain: removed at the end of the frame (removeOutflow).
 constexpr std::uint32_t kFlagOutside = 128u;
+/// Weak-layer particle whose eta exceeded 0 (part of the anticrack; fractureTime says when).
+constexpr std::uint32_t kFlagCracked = 256u;
 constexpr float kMovedSpeed = 0.1f; ///< m/s, outputs.md's threshold for moving snow (front_x)
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).

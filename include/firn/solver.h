@@ -105,7 +105,8 @@ void applyBasalDrag(World& world, float dt);
 
 /// Return mapping and Kirchhoff stress of every awake particle from its trial F. `stateTime` is
 /// the simulated time the new state belongs to (the end of the step): a slab particle that
-/// fractures here is stamped with it (PlasticState::fractureTime).
+/// fractures here, or a weak-layer particle the crack reaches, is stamped with it
+/// (PlasticState::fractureTime).
 void applyPlasticity(World& world, double stateTime);
 
 /// Sleeping (GridDesc::sleep): puts to sleep the particles of leaves that, with all their

@@ -312,6 +312,14 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("max_crack_speed", s.crack.maxSpeed());
     j.set("mean_crack_speed", s.crack.meanSpeed());
     j.set("crack_propagation_distance", s.crack.distance());
+    std::vector<JsonObject> tipSteps;
+    for (const auto& [time, x] : s.crack.tipSteps()) {
+        JsonObject o;
+        o.set("time", time);
+        o.set("x", inScene(w, 0, x));
+        tipSteps.push_back(o);
+    }
+    j.set("crack_tip_steps", tipSteps);
     writeSlabSummary(w, s.slab, j);
     // Of the snow that moved (kFlagMoved): a base or a slope that never moved is no deposit.
     j.set("runout_x", inScene(w, 0, s.last.movedFarX));

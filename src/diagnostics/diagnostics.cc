@@ -46,11 +46,24 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
         if (!std::isnan(d.movedFarX)) into.movedFarX = d.movedFarX, into.movedFarY = d.movedFarY;
     if (!d.crackCells.empty()) {
+        // Union of two sorted cell lists; a cell in both keeps the earlier crack time.
         std::vector<std::int64_t> cells;
-        cells.reserve(into.crackCells.size() + d.crackCells.size());
-        std::set_union(into.crackCells.begin(), into.crackCells.end(), d.crackCells.begin(),
-                       d.crackCells.end(), std::back_inserter(cells));
+        std::vector<float> times;
+        std::size_t a = 0, b = 0;
+        const auto& ca = into.crackCells;
+        const auto& cb = d.crackCells;
+        while (a < ca.size() || b < cb.size()) {
+            if (b == cb.size() || (a < ca.size() && ca[a] < cb[b])) {
+                cells.push_back(ca[a]), times.push_back(into.crackCellTimes[a++]);
+            } else if (a == ca.size() || cb[b] < ca[a]) {
+                cells.push_back(cb[b]), times.push_back(d.crackCellTimes[b++]);
+            } else {
+                cells.push_back(ca[a]);
+                times.push_back(std::min(into.crackCellTimes[a++], d.crackCellTimes[b++]));
+            }
+        }
         into.crackCells = std::move(cells);
+        into.crackCellTimes = std::move(times);
     }
 }
 
@@ -74,6 +87,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
     const ParticleSet& ps = world.particles;
     FrameDiagnostics d;
     d.topY = -std::numeric_limits<double>::infinity();
+    std::vector<std::pair<std::int64_t, float>> cracked; // (cell, crack time)
     for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
         const Material& mat = world.materials[ps.material[i]];
         const double m = ps.mass[i];
@@ -106,11 +120,15 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         if (mat.model == MaterialModel::WeakLayer) {
             d.hasWeakLayer = true;
             if (ps.plastic[i].eta > 0.f)
-                d.crackCells.push_back(std::int64_t(std::floor(x[0] / world.dx)));
+                cracked.push_back(
+                    {std::int64_t(std::floor(x[0] / world.dx)), ps.plastic[i].fractureTime});
         }
     }
-    std::sort(d.crackCells.begin(), d.crackCells.end());
-    d.crackCells.erase(std::unique(d.crackCells.begin(), d.crackCells.end()), d.crackCells.end());
+    std::sort(cracked.begin(), cracked.end()); // by cell, then time: the first is the earliest
+    for (const auto& [cell, time] : cracked) {
+        if (!d.crackCells.empty() && d.crackCells.back() == cell) continue;
+        d.crackCells.push_back(cell), d.crackCellTimes.push_back(time);
+    }
     return d;
 }
 
@@ -125,6 +143,7 @@ FrameDiagnostics computeDiagnostics(const World& world) {
     FrameDiagnostics total;
     total.topY = -std::numeric_limits<double>::infinity();
     for (const FrameDiagnostics& d : perLeaf) merge(total, d);
+    total.crackCellWidth = world.dx;
     crackExtent(total, world.dx);
     if (total.mass > 0) {
         total.centreOfMass /= total.mass;

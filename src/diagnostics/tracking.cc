@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace firn {
@@ -26,10 +27,12 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
         mMaxSpeed = 0.0;
         mUpPropagated = mDownPropagated = 0.0;
         mHistory.clear(), mUpHistory.clear(), mDownHistory.clear();
+        mUpSteps.clear(), mDownSteps.clear();
     }
     mUpHistory.push_back({time, d.crackMinX});
     mDownHistory.push_back({time, d.crackMaxX});
     if (std::isnan(mMinX0)) {
+        recordSteps(d, true);
         mMinX0 = mMinX = d.crackMinX, mMaxX0 = mMaxX = d.crackMaxX;
         mTime = time;
         mTip = d.crackMaxX;
@@ -48,6 +51,7 @@ void CrackTracker::update(const FrameDiagnostics& d, double time) {
     mDirection = upSlope ? -1 : 1;
     mSpeed = std::max(0.0, advance) / (time - mTime);
     mMaxSpeed = std::max(mMaxSpeed, mSpeed);
+    recordSteps(d, false);
     mMinX = d.crackMinX, mMaxX = d.crackMaxX, mTime = time;
     mHistory.push_back({time, mTip});
 }
@@ -56,7 +60,63 @@ double CrackTracker::distance() const {
     return std::isnan(mMinX0) ? 0.0 : (mMaxX - mMinX) - (mMaxX0 - mMinX0);
 }
 
+void CrackTracker::recordSteps(const FrameDiagnostics& d, bool fresh) {
+    if (d.crackCellTimes.size() != d.crackCells.size() || !(d.crackCellWidth > 0.0)) return;
+    const double w = d.crackCellWidth;
+    std::vector<std::pair<double, double>> grown; // (time, x) of the cells beyond the last extent
+    for (std::size_t k = 0; k < d.crackCells.size(); ++k) {
+        const double x = (double(d.crackCells[k]) + 0.5) * w;
+        if (x < d.crackMinX || x > d.crackMaxX) continue;
+        if (!fresh && x >= mMinX && x <= mMaxX) continue;
+        grown.push_back({double(d.crackCellTimes[k]), x});
+    }
+    if (grown.empty()) return;
+    std::sort(grown.begin(), grown.end());
+    // The end moves to a cell when the cell cracks within reach of it (crackExtent bridges
+    // kCrackGapCells); a cell that cracked on its own farther ahead waits until the end comes
+    // within reach, and joins then.
+    const double reach = (double(kCrackGapCells) + 1.5) * w;
+    auto advance = [&](std::vector<std::pair<double, double>>& steps, double end, double sign) {
+        std::vector<double> pending;
+        for (const auto& [t, x] : grown) {
+            if (!(sign * (x - end) > 0.0)) continue;
+            if (sign * (x - end) > reach) {
+                pending.push_back(x);
+                continue;
+            }
+            end = x;
+            for (bool joined = true; joined;) {
+                joined = false;
+                for (double p : pending) {
+                    if (sign * (p - end) > 0.0 && sign * (p - end) <= reach) end = p, joined = true;
+                }
+            }
+            if (!steps.empty() && steps.back().first == t) {
+                steps.back().second = end; // several cells in one step: the farthest
+            } else {
+                steps.push_back({t, end});
+            }
+        }
+    };
+    if (fresh) {
+        // The crack starts where it cracked first.
+        const auto& [t0, x0] = grown.front();
+        mUpSteps.push_back({t0, x0}), mDownSteps.push_back({t0, x0});
+        advance(mUpSteps, x0, -1.0), advance(mDownSteps, x0, 1.0);
+    } else {
+        advance(mUpSteps, mMinX, -1.0), advance(mDownSteps, mMaxX, 1.0);
+    }
+}
+
 double CrackTracker::tipAt(double time) const {
+    const auto& steps = tipSteps();
+    if (!steps.empty()) {
+        if (time < steps.front().first) return std::nan("");
+        const auto after =
+            std::upper_bound(steps.begin(), steps.end(), time,
+                             [](double t, const auto& entry) { return t < entry.first; });
+        return (after - 1)->second;
+    }
     if (mHistory.empty() || time < mHistory.front().first) return std::nan("");
     const auto after =
         std::upper_bound(mHistory.begin(), mHistory.end(), time,
@@ -132,6 +192,7 @@ void CrackTracker::save(ByteWriter& out) const {
     out.value(mDirection);
     out.value(mUpPropagated), out.value(mDownPropagated);
     out.array(mHistory), out.array(mUpHistory), out.array(mDownHistory);
+    out.array(mUpSteps), out.array(mDownSteps);
 }
 
 void CrackTracker::load(ByteReader& in) {
@@ -140,6 +201,7 @@ void CrackTracker::load(ByteReader& in) {
     in.value(mDirection);
     in.value(mUpPropagated), in.value(mDownPropagated);
     in.array(mHistory), in.array(mUpHistory), in.array(mDownHistory);
+    in.array(mUpSteps), in.array(mDownSteps);
 }
 
 void StabilityWatch::save(ByteWriter& out) const {

@@ -151,7 +151,7 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     for (PlasticState& s : w.particles.plastic) s.flags &= ~kFlagMoved; // settling is not motion
     w.time = 0.0;
     w.steps = 0;
-    // A slab that fractured while settling is fractured at t = 0.
+    // A slab that fractured (or a weak layer that cracked) while settling did so at t = 0.
     for (PlasticState& s : w.particles.plastic) s.fractureTime = 0.f;
     w.maxSpeed = 0.f;
     reportOverload(w, report);

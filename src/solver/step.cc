@@ -53,11 +53,17 @@ bool elasticFastPath(const Material& mat, const Mat3f& H, const PlasticState& st
     return true;
 }
 
-/// Stamps `time` on a snow particle the first time it counts as fractured (slabFractured), so
-/// that slab fractures are timed to the step, not to the frame.
-void markSlabFracture(const Material& mat, double time, PlasticState& state) {
-    if ((state.flags & kFlagSlabFractured) || !slabFractured(mat, state)) return;
-    state.flags |= kFlagSlabFractured;
+/// Stamps `time` on a snow particle the first time it counts as fractured (slabFractured), and
+/// on a weak-layer particle the first time its eta exceeds 0, so that slab fractures and the
+/// crack's arrival are timed to the step, not to the frame.
+void markFractureTime(const Material& mat, double time, PlasticState& state) {
+    if (mat.model == MaterialModel::WeakLayer) {
+        if ((state.flags & kFlagCracked) || !(state.eta > 0.f)) return;
+        state.flags |= kFlagCracked;
+    } else {
+        if ((state.flags & kFlagSlabFractured) || !slabFractured(mat, state)) return;
+        state.flags |= kFlagSlabFractured;
+    }
     state.fractureTime = float(time);
 }
 
@@ -173,7 +179,7 @@ void applyPlasticity(World& world, double stateTime) {
             if (mat.model != MaterialModel::Elastic) {
                 const ReturnMapResult rm = returnMap(mat, eps, ps.plastic[i]);
                 ps.plastic[i] = rm.state;
-                markSlabFracture(mat, stateTime, ps.plastic[i]);
+                markFractureTime(mat, stateTime, ps.plastic[i]);
                 if (rm.eps != eps) {
                     // Fe = U exp(eps) V^T = R Fe_trial with R = U diag(exp(eps) / sigma) U^T, as
                     // H <- H + (R - I)(I + H), R - I = U diag(expm1(eps - eps_trial)) U^T, which
