@@ -73,7 +73,8 @@ public:
     /// Leading tip at `time`, m; NaN before the crack appears, the last tip after the last frame.
     /// Timed to the step where the frames carry crackCellTimes: the end of the extent as the
     /// cells cracked, step by step (a cell that cracked on its own ahead of the end joins when
-    /// the end comes within kCrackGapCells of it); otherwise interpolated linearly between frames.
+    /// the end comes within kCrackGapCells of it, and no earlier than the frame before it
+    /// joined); otherwise interpolated linearly between frames.
     double tipAt(double time) const;
     /// The leading end (direction()) timed to the step: (time, x) at each step it moved; empty
     /// where the frames carry no crackCellTimes.

@@ -68,7 +68,10 @@ void CrackTracker::recordSteps(const FrameDiagnostics& d, bool fresh) {
         const double x = (double(d.crackCells[k]) + 0.5) * w;
         if (x < d.crackMinX || x > d.crackMaxX) continue;
         if (!fresh && x >= mMinX && x <= mMaxX) continue;
-        grown.push_back({double(d.crackCellTimes[k]), x});
+        // A cell that had cracked by the last frame but lay outside its extent (it cracked on
+        // its own ahead of the tip, or snow that slides carried it here) joins after that frame.
+        const double t = double(d.crackCellTimes[k]);
+        grown.push_back({fresh ? t : std::max(t, mTime), x});
     }
     if (grown.empty()) return;
     std::sort(grown.begin(), grown.end());
