@@ -253,6 +253,13 @@ def check_pst(binary, work):
     metrics = read_table(out / "metrics.csv")
     tip = metrics["crack_tip_x"]
     check(np.nanmax(tip) > 2.5, f"the crack runs the column (tip reaches {np.nanmax(tip):.2f} m)")
+    # The tip timed to the step runs the same way, step after step, and ends where the frames'
+    # tip ends (within one cell, dx 0.03).
+    steps = json.loads((out / "summary.json").read_text())["crack_tip_steps"]
+    times, xs = np.array([s["time"] for s in steps]), np.array([s["x"] for s in steps])
+    check(len(steps) > 10 and bool(np.all(np.diff(times) > 0)) and bool(np.all(np.diff(xs) > 0))
+          and abs(xs[-1] - tip[np.isfinite(tip)][-1]) <= 0.031,
+          f"crack_tip_steps: {len(steps)} steps, x rising to {xs[-1] if len(xs) else None} m")
 
     # Automatic map times: 4 frames while the crack runs.
     path = firn(binary, "report", str(out), "--quiet").stdout.strip()
