@@ -64,7 +64,7 @@ float standardNormal(std::uint64_t& state) {
 /// with a thickness_profile takes t0 from the profile at x.
 struct ThicknessField {
     static constexpr int kModes = 64;
-    double t0 = 0.0, std = 0.0; ///< t0: the largest thickness of a polygon body's areas
+    double t0 = 0.0, std = 0.0; ///< t0: the largest thickness of a profile or of a polygon's areas
     std::vector<std::array<double, 3>> modes;   // kx, kz, phase
     std::vector<ReleaseArea> areas;             // polygon bodies
     std::vector<std::array<double, 2>> profile; // a layer's thickness_profile
