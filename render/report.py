@@ -515,6 +515,9 @@ def flow_chart(run, path):
         a.plot(flow[0], flow[1], color="#d62728", label="grid flow speed (volume caches)")
     a.plot(t, run.column("max_speed"), color="#d62728" if flow is None else "0.6",
            lw=1.5 if flow is None else 1.0, label="fastest particle (metrics.csv max_speed)")
+    if "slab_speed" in run.metrics and np.isfinite(run.column("slab_speed")).any():
+        a.plot(t, run.column("slab_speed"), color="#2ca02c",
+               label="slab's centre of mass (metrics.csv slab_speed)")
     a.set_xlabel("time (s)")
     a.set_ylabel("speed (m/s)")
     a.set_title("maximum flow speed")
@@ -811,7 +814,9 @@ def write_report(run, quiet):
         "Left: the flow speed against time, the largest grid velocity where the snow is denser "
         "than 100 kg/m³ (the volume caches, up to 60 frames; the speed the snow moves with, "
         "the field of Gaume et al. 2019, Fig. 6), and the fastest particle's own speed "
-        "(metrics.csv <code>max_speed</code>; with pure FLIP it also carries particle noise). "
+        "(metrics.csv <code>max_speed</code>; with pure FLIP it also carries particle noise); "
+        "with a slab on a weak layer, the speed of the slab's centre of mass (metrics.csv "
+        "<code>slab_speed</code>: 0 while it rests, rising as the released slab leaves its bed). "
         "Right: total kinetic energy" + unit + " (metrics.csv).")))
 
     sections.append("<h2>McClung &amp; Gauer diagram and α-angle</h2>")

@@ -19,8 +19,8 @@ namespace firn {
 
 /// Bump when the payload's layout changes; older files are then refused with a message.
 // 2: peak fields and the COM path; 3: crack ends; 4: the leaves' velocity at the start of quiet;
-// 5: the crack's ends timed to the step
-constexpr std::uint32_t kCheckpointFormat = 5;
+// 5: the crack's ends timed to the step; 6: the slab's mass and momentum
+constexpr std::uint32_t kCheckpointFormat = 6;
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

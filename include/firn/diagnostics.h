@@ -45,6 +45,15 @@ struct FrameDiagnostics {
     double crackMinX = std::numeric_limits<double>::quiet_NaN();
     double crackMaxX = std::numeric_limits<double>::quiet_NaN();
     double failedFraction = 0;                               ///< failed mass / mass
+    /// The slab's (Material::slab) mass, kg (2D: per metre), and momentum: their ratio is the
+    /// velocity of its centre of mass, the speed at which the released slab moves off its bed.
+    double slabMass = 0;
+    Eigen::Vector3d slabMomentum = Eigen::Vector3d::Zero();
+    /// Speed of the slab's centre of mass, m/s; NaN without a slab.
+    double slabSpeed() const {
+        return slabMass > 0 ? slabMomentum.norm() / slabMass
+                            : std::numeric_limits<double>::quiet_NaN();
+    }
     bool finite = true;                                      ///< every position and velocity finite
     Eigen::Vector3d worstPosition = Eigen::Vector3d::Zero(); ///< where the fastest or first
                                                              ///< non-finite particle is

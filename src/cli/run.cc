@@ -123,7 +123,8 @@ const std::vector<std::string> kMetricColumns = {"frame",
                                                  "slab_blocks",
                                                  "largest_block_mass",
                                                  "median_block_mass",
-                                                 "outflow_mass"};
+                                                 "outflow_mass",
+                                                 "slab_speed"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
@@ -218,7 +219,8 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          std::to_string(blocks.count),
                          cell(blocks.largestMass),
                          cell(blocks.medianMass),
-                         cell(w.outflowMass)});
+                         cell(w.outflowMass),
+                         cell(d.slabSpeed())});
 }
 
 /// The run loop's state beside the world's, for checkpoints (what writeFrame and the summary

@@ -31,6 +31,8 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     into.elasticEnergy += d.elasticEnergy;
     into.gravitationalEnergy += d.gravitationalEnergy;
     into.failedFraction += d.failedFraction; // failed mass until the end
+    into.slabMass += d.slabMass;
+    into.slabMomentum += d.slabMomentum;
     if (d.maxSpeed > into.maxSpeed || !d.finite) into.worstPosition = d.worstPosition;
     into.maxSpeed = std::max(into.maxSpeed, d.maxSpeed);
     if (d.topY > into.topY) into.topY = d.topY, into.topX = d.topX;
@@ -112,6 +114,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         if (x[1] > d.topY) d.topY = x[1], d.topX = x[0];
         if (speed > kMovingSpeed) d.frontX = std::isnan(d.frontX) ? x[0] : std::max(d.frontX, x[0]);
         if (ps.plastic[i].flags & kFlagFailed) d.failedFraction += m;
+        if (mat.slab) d.slabMass += m, d.slabMomentum += m * v;
         if (ps.plastic[i].flags & kFlagMoved) {
             if (!(x[1] <= d.movedTopY)) d.movedTopY = x[1], d.movedTopX = x[0];
             if (!(x[0] <= d.movedFarX)) d.movedFarX = x[0], d.movedFarY = x[1];
@@ -177,9 +180,10 @@ void save(ByteWriter& out, const FrameDiagnostics& d) {
     out.value(std::uint64_t(d.particles));
     for (double v : {d.mass, d.kineticEnergy, d.elasticEnergy, d.gravitationalEnergy, d.maxSpeed,
                      d.topX, d.topY, d.frontX, d.movedTopX, d.movedTopY, d.movedFarX, d.movedFarY,
-                     d.crackMinX, d.crackMaxX, d.failedFraction})
+                     d.crackMinX, d.crackMaxX, d.failedFraction, d.slabMass})
         out.value(v);
-    for (const Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition})
+    for (const Eigen::Vector3d* v :
+         {&d.centreOfMass, &d.momentum, &d.worstPosition, &d.slabMomentum})
         for (int a = 0; a < 3; ++a) out.value((*v)[a]);
     out.value(std::uint8_t(d.hasWeakLayer)), out.value(std::uint8_t(d.finite));
     out.array(d.crackCells);
@@ -189,9 +193,10 @@ void load(ByteReader& in, FrameDiagnostics& d) {
     d.particles = std::size_t(in.value<std::uint64_t>());
     for (double* v : {&d.mass, &d.kineticEnergy, &d.elasticEnergy, &d.gravitationalEnergy,
                       &d.maxSpeed, &d.topX, &d.topY, &d.frontX, &d.movedTopX, &d.movedTopY,
-                      &d.movedFarX, &d.movedFarY, &d.crackMinX, &d.crackMaxX, &d.failedFraction})
+                      &d.movedFarX, &d.movedFarY, &d.crackMinX, &d.crackMaxX, &d.failedFraction,
+                      &d.slabMass})
         in.value(*v);
-    for (Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition})
+    for (Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition, &d.slabMomentum})
         for (int a = 0; a < 3; ++a) in.value((*v)[a]);
     d.hasWeakLayer = in.value<std::uint8_t>() != 0;
     d.finite = in.value<std::uint8_t>() != 0;
