@@ -369,6 +369,92 @@ def windowed_speed(times, xs, window):
     return np.array(mids), np.array(speeds)
 
 
+def crack_arrival(run):
+    """(x, z, time) arrays of crack_arrival.csv (3D runs), or None when absent or empty."""
+    path = run.out_dir / "crack_arrival.csv"
+    if not path.exists():
+        return None
+    a = read_csv(path)
+    return (a["x"], a["z"], a["time"]) if a.get("x", np.empty(0)).size else None
+
+
+def front_speed(distance, time, near=0.5, span=1.0):
+    """The crack front's speed along one direction, m/s: the least-squares slope of distance
+    against arrival time over the cells more than `near` m from the origin (inside, the trigger
+    loads the layer at once). None where that is no measure of a front: the cells span less than
+    `span` m (a narrow slope: its free sides crack on their own), or no time, or the fit does
+    not move outwards."""
+    far = distance > near
+    if far.sum() < 3 or np.ptp(distance[far]) < span or np.ptp(time[far]) <= 0:
+        return None
+    speed = float(np.polyfit(time[far], distance[far], 1)[0])
+    return speed if speed > 0 else None
+
+
+def arrival_speeds(x, z, t, dx):
+    """The crack's origin (the first cell to crack) and its front speeds from there: up-slope and
+    down-slope along the origin's row (cells within half a cell of its z), across the slope
+    (anti-plane) along its column (within half a cell of its x), both ways pooled."""
+    k = int(np.argmin(t))
+    x0, z0, t0 = x[k], z[k], t[k]
+    row = np.abs(z - z0) < 0.5 * dx
+    col = np.abs(x - x0) < 0.5 * dx
+    up = row & (x < x0)
+    down = row & (x > x0)
+    return {"origin": (x0, z0, t0),
+            "up": front_speed(x0 - x[up], t[up]),
+            "down": front_speed(x[down] - x0, t[down]),
+            "across": front_speed(np.abs(z[col] - z0), t[col]),
+            "rows": (up, down, col)}
+
+
+def crack_arrival_chart(run, path, arrival):
+    """Plan map of the crack's arrival time over the bed (x down-slope, z across) with
+    isochrones, and arrival time against distance from the origin along and across the slope."""
+    x, z, t = arrival
+    dx = run.dx
+    speeds = arrival_speeds(x, z, t, dx)
+    x0, z0, t0 = speeds["origin"]
+    ix = np.rint((x - x.min()) / dx).astype(int)
+    iz = np.rint((z - z.min()) / dx).astype(int)
+    grid = np.full((iz.max() + 1, ix.max() + 1), np.nan)
+    grid[iz, ix] = t
+    fig, (a, b) = plt.subplots(1, 2, figsize=(14, 4.6), constrained_layout=True,
+                               gridspec_kw={"width_ratios": [1.6, 1]})
+    extent = (x.min() - dx / 2, x.max() + dx / 2, z.min() - dx / 2, z.max() + dx / 2)
+    cm = plt.get_cmap("viridis").copy()
+    cm.set_bad(NO_LAYER)
+    image = a.imshow(grid, origin="lower", extent=extent, cmap=cm, interpolation="nearest",
+                     aspect="equal")
+    levels = np.linspace(t.min(), t.max(), 9)[1:-1]
+    if np.ptp(t) > 0:
+        gx = x.min() + dx * np.arange(grid.shape[1])
+        gz = z.min() + dx * np.arange(grid.shape[0])
+        a.contour(gx, gz, np.ma.masked_invalid(grid), levels=levels, colors="w", linewidths=0.7)
+    a.plot(x0, z0, "r*", ms=12, label=f"first crack, t = {t0:.3f} s")
+    a.set_xlabel("x, down-slope (m)")
+    a.set_ylabel("z, across the slope (m)")
+    a.set_title("crack arrival time (crack_arrival.csv), isochrones in white", fontsize=10)
+    a.legend(fontsize=8, loc="upper right")
+    fig.colorbar(image, ax=a, label="arrival time (s)")
+    up, down, col = speeds["rows"]
+
+    def label(name, v):
+        return f"{name}: {v:.0f} m/s" if v is not None else f"{name}: no front to measure"
+
+    b.plot(t[up], x0 - x[up], ".", color="#1f77b4", label=label("up-slope", speeds["up"]))
+    b.plot(t[down], x[down] - x0, ".", color="#ff7f0e", label=label("down-slope", speeds["down"]))
+    b.plot(t[col], np.abs(z[col] - z0), ".", color="#2ca02c",
+           label=label("across (anti-plane)", speeds["across"]))
+    b.axhline(0.5, color="0.6", lw=0.8, ls="--")
+    b.set_xlabel("arrival time (s)")
+    b.set_ylabel("distance from the first crack (m)")
+    b.set_title("front speeds: least-squares slopes beyond 0.5 m", fontsize=10)
+    b.legend(fontsize=8, loc="upper left")
+    b.grid(alpha=0.3)
+    return save(fig, path), speeds
+
+
 def crack_chart(run, path):
     """Fig. 3 bottom: crack tip against time, crack speed against position along the slope."""
     t, tip, speed = run.column("time"), run.column("crack_tip_x"), run.column("crack_speed")
@@ -803,6 +889,21 @@ def write_report(run, quiet):
             "bars: slab fractures (summary.json <code>slab_fractures</code>), one cell wide.")))
     else:
         sections.append("<p>No crack: no weak-layer particle reached η &gt; 0.</p>")
+    arrival = crack_arrival(run)
+    if arrival is not None:
+        chart, speeds = crack_arrival_chart(run, out / "crack_arrival.png", arrival)
+        written.append(chart)
+        ratio = (f"{speeds['across'] / speeds['up']:.2f}"
+                 if speeds["across"] is not None and speeds["up"] else "n/a")
+        sections.append(figure(written[-1], (
+            "Left: where and when the weak layer cracked, seen from above the bed "
+            "(crack_arrival.csv: each dx cell of the bed's plan, the time its weak layer first "
+            "cracked, from the particles' crack times, timed to the step), with isochrones. "
+            "Right: arrival time against distance from the first crack up-slope and down-slope "
+            "along its row and across the slope along its column; the front speed is the "
+            "least-squares slope beyond 0.5 m, where the cells there span at least 1 m. "
+            "Across / up-slope: " + ratio + " (Gaume et al. "
+            "2019: the anti-plane crack runs at about half the slope-wise speed).")))
 
     sections.append("<h2>Slab fractures</h2>")
     sections += slab_section(run, out, written)

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <string>
+#include <tuple>
 
 #include <catch2/catch.hpp>
 
@@ -143,6 +144,56 @@ TEST_CASE("the crack tip is timed to the step from the cells' crack times", "[di
     for (auto [t, lo] : {std::pair{0.11, 4.95}, {0.12, 4.85}, {0.14, 3.55}})
         coarse.update(crackFrame(lo, 5.15), t);
     CHECK(coarse.tipAt(0.13) == Approx(4.2));
+}
+
+TEST_CASE("the crack's arrival over the bed: each cell once, when its particles cracked, no "
+          "earlier than the frame before; cells holding only carried particles left out",
+          "[diagnostics]") {
+    // (cell (x, z), earliest and latest crack time of its cracked particles)
+    using Plan = std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, CellCrackTimes>>;
+    auto frame = [](const Plan& cells) {
+        FrameDiagnostics d;
+        d.crackCellWidth = 0.1;
+        for (const auto& [cell, times] : cells)
+            d.crackPlanCells.push_back(cell), d.crackPlanCellTimes.push_back(times);
+        return d;
+    };
+    CrackArrivalMap arrival;
+    arrival.update(frame({}), 0.08);
+    CHECK(arrival.cells().empty());
+    arrival.update(frame({{{5, 2}, {0.095f, 0.099f}}, {{5, 3}, {0.099f, 0.099f}}}), 0.1);
+    // The next frame, 0.02 s later: (5, 2) also holds a particle that cracked earlier elsewhere:
+    // its time stays; (4, 2) and (5, 4) cracked since; (6, 0) holds a particle that cracked at
+    // 0.05 s and one at 0.11 s: stamped at the frame before, 0.1 s; (7, 1) holds only particles
+    // that cracked before 0.1 s, carried in: left out.
+    arrival.update(frame({{{4, 2}, {0.113f, 0.113f}},
+                          {{5, 2}, {0.09f, 0.118f}},
+                          {{5, 3}, {0.099f, 0.099f}},
+                          {{5, 4}, {0.117f, 0.119f}},
+                          {{6, 0}, {0.05f, 0.11f}},
+                          {{7, 1}, {0.05f, 0.099f}}}),
+                   0.12);
+    const std::vector<std::tuple<std::int64_t, std::int64_t, double>> expected{
+        {4, 2, 0.113f}, {5, 2, 0.095f}, {5, 3, 0.099f}, {5, 4, 0.117f}, {6, 0, 0.1}};
+    REQUIRE(arrival.cells().size() == expected.size());
+    for (std::size_t k = 0; k < expected.size(); ++k) {
+        const auto& [x, z, time] = expected[k];
+        INFO("cell " << k);
+        CHECK(arrival.cells()[k].x == x);
+        CHECK(arrival.cells()[k].z == z);
+        CHECK(arrival.cells()[k].time == time);
+    }
+    CHECK(arrival.cellWidth() == 0.1);
+    // A checkpoint continues it exactly: a later frame stamps a new cell no earlier than 0.12 s.
+    ByteWriter out;
+    arrival.save(out);
+    CrackArrivalMap resumed;
+    ByteReader in(out.bytes().data(), out.bytes().size());
+    resumed.load(in);
+    resumed.update(frame({{{3, 2}, {0.11f, 0.13f}}}), 0.14);
+    REQUIRE(resumed.cells().size() == 6);
+    CHECK(resumed.cells().front().x == 3);
+    CHECK(resumed.cells().front().time == 0.12);
 }
 
 TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",

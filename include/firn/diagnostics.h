@@ -15,6 +15,11 @@
 
 namespace firn {
 
+/// The crack times of a cell's cracked weak-layer particles: the earliest and the latest, s.
+struct CellCrackTimes {
+    float earliest = 0.f, latest = 0.f;
+};
+
 struct FrameDiagnostics {
     std::size_t particles = 0;
     double mass = 0; ///< kg (2D: per metre)
@@ -39,12 +44,16 @@ struct FrameDiagnostics {
     /// (PlasticState::fractureTime); and the cells' width (dx), m.
     std::vector<float> crackCellTimes;
     double crackCellWidth = 0;
+    /// 3D: the cells of the bed's plan (x, z; width dx) that hold weak-layer particles with
+    /// eta > 0, sorted, unique, with their particles' crack times; empty in 2D.
+    std::vector<std::pair<std::int64_t, std::int64_t>> crackPlanCells;
+    std::vector<CellCrackTimes> crackPlanCellTimes;
     /// Extent along x of the crack: the largest run of crackCells with gaps of at most
     /// kCrackGapCells (isolated particles that yielded elsewhere are not the crack); NaN while
     /// none. Cell centres, m.
     double crackMinX = std::numeric_limits<double>::quiet_NaN();
     double crackMaxX = std::numeric_limits<double>::quiet_NaN();
-    double failedFraction = 0;                               ///< failed mass / mass
+    double failedFraction = 0; ///< failed mass / mass
     /// The slab's (Material::slab) mass, kg (2D: per metre), and momentum: their ratio is the
     /// velocity of its centre of mass, the speed at which the released slab moves off its bed.
     double slabMass = 0;
@@ -119,6 +128,33 @@ private:
     /// Appends to mUpSteps / mDownSteps the growth since the last frame (all of it for a new
     /// crack).
     void recordSteps(const FrameDiagnostics& d, bool fresh);
+};
+
+/// Where and when the weak layer cracked over the bed's plan (3D): for each (x, z) cell of dx,
+/// the time its weak layer first cracked, the crack front's arrival (Gaume et al. 2019, Fig. A1).
+/// A cell's time is the earliest crack time (PlasticState::fractureTime, timed to the step) of
+/// its particles at the first frame that shows it cracked, and no earlier than the frame before.
+/// A cell whose cracked particles all cracked before the frame before was not reached by the
+/// crack: they were carried into it (a layer squeezed out at a free side, snow that slides), and
+/// it is left out until a particle cracks in it.
+class CrackArrivalMap {
+public:
+    struct Cell {
+        std::int64_t x = 0, z = 0; ///< cell indices: the cell spans [x, x + 1) dx along x
+        double time = 0;           ///< s
+    };
+    void update(const FrameDiagnostics& d, double time);
+    /// The cells, sorted by x then z; empty before a crack and in 2D.
+    const std::vector<Cell>& cells() const { return mCells; }
+    double cellWidth() const { return mCellWidth; } ///< m
+
+    void save(ByteWriter& out) const;
+    void load(ByteReader& in);
+
+private:
+    std::vector<Cell> mCells;
+    double mCellWidth = 0;
+    double mLastFrameTime = -std::numeric_limits<double>::infinity();
 };
 
 /// Weak-layer cracks run at 20-150 m/s (field PSTs, Gaume et al. 2019); an end of the failed

@@ -143,6 +143,7 @@ struct RunState {
     std::string framesDir;
     MetricsWriter metrics;
     CrackTracker crack;
+    CrackArrivalMap arrival; ///< 3D: the crack's arrival over the bed's plan
     SlabFractureTracker slab;
     double lastDt = 0;
     double maxSpeed = 0;
@@ -182,6 +183,7 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     if (out.particles) writeParticleCache(s.framesDir, info, w.dx, exportParticles(w));
     if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
     s.crack.update(d, w.time);
+    s.arrival.update(d, w.time);
     s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
     const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
@@ -228,6 +230,7 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
 std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
     ByteWriter out;
     s.crack.save(out);
+    s.arrival.save(out);
     s.slab.save(out);
     watch.save(out);
     for (double v : {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY, s.comPathLength})
@@ -241,6 +244,7 @@ std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
 void loadRunState(const std::string& bytes, RunState& s, StabilityWatch& watch) {
     ByteReader in(bytes.data(), bytes.size());
     s.crack.load(in);
+    s.arrival.load(in);
     s.slab.load(in);
     watch.load(in);
     for (double* v : {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY, &s.comPathLength})
@@ -288,6 +292,25 @@ void writeSlabSummary(const World& w, const SlabFractureTracker& slab, JsonObjec
     j.set("final_slab_blocks", static_cast<long long>(slab.blocks().count));
     j.set("max_slab_blocks", static_cast<long long>(slab.maxBlocks()));
     j.set("final_largest_block_mass", slab.blocks().largestMass);
+}
+
+/// crack_arrival.csv (3D runs with a weak layer): x, z of each bed cell's centre (m, scene
+/// coordinates) and the time its weak layer first cracked (s).
+void writeCrackArrival(const RunState& s, const std::string& outDir) {
+    const World& w = s.world;
+    const std::string path = outDir + "/crack_arrival.csv";
+    if (w.dim != 3 || !s.last.hasWeakLayer) {
+        // An earlier run's file in the same folder would describe that run; none is fine.
+        std::error_code ec;
+        std::filesystem::remove(path, ec);
+        return;
+    }
+    std::string text = "x,z,time\n";
+    const double width = s.arrival.cellWidth();
+    for (const CrackArrivalMap::Cell& c : s.arrival.cells())
+        text += cell(inScene(w, 0, (double(c.x) + 0.5) * width)) + "," +
+                cell(inScene(w, 2, (double(c.z) + 0.5) * width)) + "," + cell(c.time) + "\n";
+    writeFileAtomic(path, text);
 }
 
 void writeSummary(const RunState& s, const RunResult& r, int threads) {
@@ -354,6 +377,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("checkpoint_wall_seconds", s.checkpointSeconds);
     if (r.resumedFromFrame >= 0) j.set("resumed_from_frame", r.resumedFromFrame);
     writeFileAtomic(r.outDir + "/summary.json", j.str());
+    writeCrackArrival(s, r.outDir);
 }
 
 /// A rerun into the same folder must not leave frames of an earlier, longer run behind.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 namespace firn {
 
@@ -20,6 +21,56 @@ StressInvariants invariantsOf(const Sym3f& t, int dim) {
     double ss = sxx * sxx + syy * syy + szz * szz + 2.0 * t.xy * t.xy;
     if (dim == 3) ss += 2.0 * (t.xz * t.xz + t.yz * t.yz);
     return {float(p), float(std::sqrt(1.5 * ss))};
+}
+
+/// Two crack times of one cell as one: for the crack's extent along x the earlier; for the bed's
+/// plan, the earliest and the latest.
+float combineCrackTimes(float a, float b) {
+    return std::min(a, b);
+}
+
+CellCrackTimes combineCrackTimes(const CellCrackTimes& a, const CellCrackTimes& b) {
+    return {std::min(a.earliest, b.earliest), std::max(a.latest, b.latest)};
+}
+
+/// Union of two sorted lists of cells with crack times each; a cell in both combines them.
+template <typename Key, typename Times>
+void mergeCellTimes(std::vector<Key>& cells, std::vector<Times>& times,
+                    const std::vector<Key>& otherCells, const std::vector<Times>& otherTimes) {
+    if (otherCells.empty()) return;
+    std::vector<Key> mergedCells;
+    std::vector<Times> mergedTimes;
+    std::size_t a = 0, b = 0;
+    while (a < cells.size() || b < otherCells.size()) {
+        if (b == otherCells.size() || (a < cells.size() && cells[a] < otherCells[b])) {
+            mergedCells.push_back(cells[a]), mergedTimes.push_back(times[a++]);
+        } else if (a == cells.size() || otherCells[b] < cells[a]) {
+            mergedCells.push_back(otherCells[b]), mergedTimes.push_back(otherTimes[b++]);
+        } else {
+            mergedCells.push_back(cells[a]);
+            mergedTimes.push_back(combineCrackTimes(times[a++], otherTimes[b++]));
+        }
+    }
+    cells = std::move(mergedCells);
+    times = std::move(mergedTimes);
+}
+
+/// (cell, crack time) pairs to sorted unique cells, each with its particles' times combined.
+template <typename Key, typename Times>
+void uniqueCellTimes(std::vector<std::pair<Key, float>>& cracked, std::vector<Key>& cells,
+                     std::vector<Times>& times) {
+    std::sort(cracked.begin(), cracked.end());
+    for (const auto& [cell, time] : cracked) {
+        Times own;
+        if constexpr (std::is_same_v<Times, float>)
+            own = time;
+        else
+            own = {time, time};
+        if (!cells.empty() && cells.back() == cell)
+            times.back() = combineCrackTimes(times.back(), own);
+        else
+            cells.push_back(cell), times.push_back(own);
+    }
 }
 
 void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
@@ -46,26 +97,9 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
         if (!std::isnan(d.movedTopY)) into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX;
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
         if (!std::isnan(d.movedFarX)) into.movedFarX = d.movedFarX, into.movedFarY = d.movedFarY;
-    if (!d.crackCells.empty()) {
-        // Union of two sorted cell lists; a cell in both keeps the earlier crack time.
-        std::vector<std::int64_t> cells;
-        std::vector<float> times;
-        std::size_t a = 0, b = 0;
-        const auto& ca = into.crackCells;
-        const auto& cb = d.crackCells;
-        while (a < ca.size() || b < cb.size()) {
-            if (b == cb.size() || (a < ca.size() && ca[a] < cb[b])) {
-                cells.push_back(ca[a]), times.push_back(into.crackCellTimes[a++]);
-            } else if (a == ca.size() || cb[b] < ca[a]) {
-                cells.push_back(cb[b]), times.push_back(d.crackCellTimes[b++]);
-            } else {
-                cells.push_back(ca[a]);
-                times.push_back(std::min(into.crackCellTimes[a++], d.crackCellTimes[b++]));
-            }
-        }
-        into.crackCells = std::move(cells);
-        into.crackCellTimes = std::move(times);
-    }
+    mergeCellTimes(into.crackCells, into.crackCellTimes, d.crackCells, d.crackCellTimes);
+    mergeCellTimes(into.crackPlanCells, into.crackPlanCellTimes, d.crackPlanCells,
+                   d.crackPlanCellTimes);
 }
 
 /// The crack's extent: the run of cells with the most failed cells (the lower one on ties),
@@ -89,6 +123,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
     FrameDiagnostics d;
     d.topY = -std::numeric_limits<double>::infinity();
     std::vector<std::pair<std::int64_t, float>> cracked; // (cell, crack time)
+    std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, float>> crackedPlan; // 3D
     for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
         const Material& mat = world.materials[ps.material[i]];
         const double m = ps.mass[i];
@@ -121,16 +156,18 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         }
         if (mat.model == MaterialModel::WeakLayer) {
             d.hasWeakLayer = true;
-            if (ps.plastic[i].eta > 0.f)
-                cracked.push_back(
-                    {std::int64_t(std::floor(x[0] / world.dx)), ps.plastic[i].fractureTime});
+            if (ps.plastic[i].eta > 0.f) {
+                const auto cellX = std::int64_t(std::floor(x[0] / world.dx));
+                const float time = ps.plastic[i].fractureTime;
+                cracked.push_back({cellX, time});
+                if (world.dim == 3)
+                    crackedPlan.push_back(
+                        {{cellX, std::int64_t(std::floor(x[2] / world.dx))}, time});
+            }
         }
     }
-    std::sort(cracked.begin(), cracked.end()); // by cell, then time: the first is the earliest
-    for (const auto& [cell, time] : cracked) {
-        if (!d.crackCells.empty() && d.crackCells.back() == cell) continue;
-        d.crackCells.push_back(cell), d.crackCellTimes.push_back(time);
-    }
+    uniqueCellTimes(cracked, d.crackCells, d.crackCellTimes);
+    uniqueCellTimes(crackedPlan, d.crackPlanCells, d.crackPlanCellTimes);
     return d;
 }
 
@@ -191,10 +228,10 @@ void save(ByteWriter& out, const FrameDiagnostics& d) {
 
 void load(ByteReader& in, FrameDiagnostics& d) {
     d.particles = std::size_t(in.value<std::uint64_t>());
-    for (double* v : {&d.mass, &d.kineticEnergy, &d.elasticEnergy, &d.gravitationalEnergy,
-                      &d.maxSpeed, &d.topX, &d.topY, &d.frontX, &d.movedTopX, &d.movedTopY,
-                      &d.movedFarX, &d.movedFarY, &d.crackMinX, &d.crackMaxX, &d.failedFraction,
-                      &d.slabMass})
+    for (double* v :
+         {&d.mass, &d.kineticEnergy, &d.elasticEnergy, &d.gravitationalEnergy, &d.maxSpeed, &d.topX,
+          &d.topY, &d.frontX, &d.movedTopX, &d.movedTopY, &d.movedFarX, &d.movedFarY, &d.crackMinX,
+          &d.crackMaxX, &d.failedFraction, &d.slabMass})
         in.value(*v);
     for (Eigen::Vector3d* v : {&d.centreOfMass, &d.momentum, &d.worstPosition, &d.slabMomentum})
         for (int a = 0; a < 3; ++a) in.value((*v)[a]);

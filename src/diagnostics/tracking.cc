@@ -1,4 +1,5 @@
-// Frame-to-frame tracking: crack tip and speed, the stability watch, the alpha angle.
+// Frame-to-frame tracking: crack tip and speed, the crack's arrival over the bed, the stability
+// watch, the alpha angle.
 #include <firn/diagnostics.h>
 
 #include <algorithm>
@@ -205,6 +206,41 @@ void CrackTracker::load(ByteReader& in) {
     in.value(mUpPropagated), in.value(mDownPropagated);
     in.array(mHistory), in.array(mUpHistory), in.array(mDownHistory);
     in.array(mUpSteps), in.array(mDownSteps);
+}
+
+void CrackArrivalMap::update(const FrameDiagnostics& d, double time) {
+    mCellWidth = d.crackCellWidth;
+    // Cells not in the map yet: both lists are sorted by (x, z).
+    std::vector<Cell> added;
+    auto known = mCells.begin();
+    for (std::size_t k = 0; k < d.crackPlanCells.size(); ++k) {
+        const auto [x, z] = d.crackPlanCells[k];
+        known = std::lower_bound(
+            known, mCells.end(), d.crackPlanCells[k],
+            [](const Cell& c, const auto& key) { return std::make_pair(c.x, c.z) < key; });
+        if (known != mCells.end() && known->x == x && known->z == z) continue;
+        const CellCrackTimes& times = d.crackPlanCellTimes[k];
+        if (double(times.latest) < mLastFrameTime) continue; // carried in, not reached
+        added.push_back({x, z, std::max(double(times.earliest), mLastFrameTime)});
+    }
+    mLastFrameTime = time;
+    if (added.empty()) return;
+    std::vector<Cell> merged(mCells.size() + added.size());
+    std::merge(mCells.begin(), mCells.end(), added.begin(), added.end(), merged.begin(),
+               [](const Cell& a, const Cell& b) {
+                   return std::make_pair(a.x, a.z) < std::make_pair(b.x, b.z);
+               });
+    mCells = std::move(merged);
+}
+
+void CrackArrivalMap::save(ByteWriter& out) const {
+    out.array(mCells);
+    out.value(mCellWidth), out.value(mLastFrameTime);
+}
+
+void CrackArrivalMap::load(ByteReader& in) {
+    in.array(mCells);
+    in.value(mCellWidth), in.value(mLastFrameTime);
 }
 
 void StabilityWatch::save(ByteWriter& out) const {

@@ -199,6 +199,30 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
                        << rows[rows.size() - 3].at("slab_speed") << " m/s two frames before");
     CHECK(slabSpeed > 0.3);
     CHECK(slabSpeed > rows[rows.size() - 3].at("slab_speed"));
+    // The crack's arrival over the bed (crack_arrival.csv): every cell of the layer's plan
+    // (75 x 10 cells of 0.1 m; cells that only hold layer squeezed out of the free sides are left
+    // out), first under the ball, and last at the layer's top and bottom ends, all after the
+    // landing and by the end of the run.
+    const auto arrival = readMetrics(dir.path() + "/crack_arrival.csv");
+    INFO(arrival.size() << " cells cracked");
+    CHECK(arrival.size() == 750);
+    double first = 1e9, firstX = 0, lastTop = 0, lastBottom = 0;
+    for (const auto& c : arrival) {
+        CHECK(c.at("x") > 4.5);
+        CHECK(c.at("x") < 12.0);
+        CHECK(c.at("z") > 0.0);
+        CHECK(c.at("z") < 1.0);
+        CHECK(c.at("time") > 0.25 - 0.02);
+        CHECK(c.at("time") <= 0.6);
+        if (c.at("time") < first) first = c.at("time"), firstX = c.at("x");
+        if (c.at("x") < 5.0) lastTop = std::max(lastTop, c.at("time"));
+        if (c.at("x") > 11.5) lastBottom = std::max(lastBottom, c.at("time"));
+    }
+    INFO("first cell x = " << firstX << " m at " << first << " s; the top half metre by " << lastTop
+                           << " s, the bottom one by " << lastBottom << " s");
+    CHECK(std::abs(firstX - 8.5) < 1.0);
+    CHECK(lastTop > first + 0.05);
+    CHECK(lastBottom > first + 0.05);
 }
 
 TEST_CASE("A slab released on its collapsed weak layer is not held back by the transfers",
