@@ -336,9 +336,18 @@ def check_pst_3d(binary, work):
     first = weak["frame"] == frames[0]
     check(np.sum(first) == 5 * np.unique(weak["x"][first]).size,
           "3D: each map is a full x-z raster")
-    check_html(report_dir, expected_images=5)
+    # The crack's arrival over the bed: cells on the layer's plan (x 0.8-1.5 m beyond the cut,
+    # z 0-0.25 m), cracked later the farther from the cut: the crack runs along x.
+    arrival = read_table(out / "crack_arrival.csv")
+    check(arrival["x"].size > 0 and np.all((arrival["z"] > 0) & (arrival["z"] < 0.25)) and
+          np.all((arrival["x"] > 0.75) & (arrival["x"] < 1.5)),
+          f"3D: {arrival['x'].size} crack_arrival.csv cells on the layer's plan beyond the cut")
+    r = np.corrcoef(arrival["x"], arrival["time"])[0, 1] if arrival["x"].size > 2 else 0.0
+    check(r > 0.5, f"3D: the crack arrives later farther from the cut (correlation {r:.2f})")
+    check_html(report_dir, expected_images=6)
     check_png(report_dir / "failure_maps.png")
     check_png(report_dir / "slab_fractures.png")
+    check_png(report_dir / "crack_arrival.png")
 
 
 def check_slide(binary, work):
