@@ -176,7 +176,7 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
     // scenes/slope3d.toml at its dx 0.1 and with its materials, trimmed for CI: a 1 m wide slice
     // (shipped: 3 m) with the layers over x = 4.5-12 m (shipped 0.5-18 m; the thickness profile
     // and noise as shipped) and a 0.45 m ball (shipped 0.8 m) 0.3 m above the slab at mid-width;
-    // 0.6 s simulated, 64 000 particles, about 40 s on 2 cores.
+    // 0.6 s simulated, 64 000 particles, about 60 s on 2 cores (13 s of it settling).
     test::TempDir dir("firn-slope3d");
     const SceneDesc scene =
         loadScene(kSlope3d, {"simulation.end_time=0.6", "body.base.x_range=[4.0, 13.0]",
