@@ -157,6 +157,28 @@ class Run:
     def has_crack(self):
         return bool(np.isfinite(self.column("crack_tip_x")).any())
 
+    def fall_height(self):
+        """H: the drop from the release's highest point to the deposit's farthest one, m."""
+        top, far = self.info.get("release_top_y"), self.info.get("deposit_far_y")
+        return None if top is None or far is None or top <= far else top - far
+
+    def gauer_speed(self):
+        """Gauer's estimate of the maximum flow speed, u_max = (g H / 2)^(1/2), m/s, with H the
+        fall height above (as quoted by Gaume et al. 2019, sec. 3.2)."""
+        height = self.fall_height()
+        gravity = self.scene.get("simulation", {}).get("gravity", [0.0, -9.81])
+        g = math.hypot(*gravity)
+        return None if height is None else math.sqrt(g * height / 2.0)
+
+    def deposit(self):
+        """(x, depth at the first frame, depth at the last) from report/data/deposit.csv, or
+        None (no particle caches, or tables written before 2026-12-03)."""
+        path = self.report_dir / "data" / "deposit.csv"
+        if not path.exists():
+            return None
+        d = read_csv(path)
+        return (d["x"], d["depth_start"], d["depth_end"]) if d.get("x", np.empty(0)).size else None
+
     def path_length(self):
         """L: straight distance from the release's highest point to the deposit's farthest one."""
         ends = [self.info.get(k) for k in
@@ -581,6 +603,32 @@ def slab_fracture_chart(run, path):
     return save(fig, path)
 
 
+def deposit_chart(run, path, deposit):
+    """The snow's depth along x at the first and the last frame: where the release left and
+    where the deposit lies."""
+    x, start, end = deposit
+    fig, a = plt.subplots(figsize=(12, 3.8), constrained_layout=True)
+    s0, s1 = np.nan_to_num(start), np.nan_to_num(end)
+    a.fill_between(x, s0, s1, where=s1 < s0, color="#1f77b4", alpha=0.25, step="mid",
+                   label="left (release, erosion)")
+    a.fill_between(x, s0, s1, where=s1 > s0, color="#d62728", alpha=0.25, step="mid",
+                   label="arrived (deposit)")
+    t0, t1 = run.info.get("deposit_start_time"), run.info.get("deposit_end_time")
+    a.step(x, s0, where="mid", color="#1f77b4", lw=1.2,
+           label="first frame" if t0 is None else f"first frame, t = {t0:.3g} s")
+    a.step(x, s1, where="mid", color="#d62728", lw=1.2,
+           label="last frame" if t1 is None else f"last frame, t = {t1:.3g} s")
+    runout = run.summary.get("runout_x")
+    if isinstance(runout, (int, float)):
+        a.axvline(runout, color="0.4", ls="--", lw=0.9, label=f"runout_x {runout:.1f} m")
+    a.set_xlabel("x, down-slope (m)")
+    a.set_ylabel("vertical snow depth (m)")
+    a.set_title("snow depth along the path (report/data/deposit.csv)", fontsize=10)
+    a.legend(fontsize=8, loc="upper right")
+    a.grid(alpha=0.3)
+    return save(fig, path)
+
+
 def slab_fracture_table(run):
     rows = "\n".join(
         f"<tr><td class=num>{k + 1}</td><td class=num>{format_value(f['x'])}</td>"
@@ -601,9 +649,15 @@ def flow_chart(run, path):
         a.plot(flow[0], flow[1], color="#d62728", label="grid flow speed (volume caches)")
     a.plot(t, run.column("max_speed"), color="#d62728" if flow is None else "0.6",
            lw=1.5 if flow is None else 1.0, label="fastest particle (metrics.csv max_speed)")
+    gauer = run.gauer_speed()
+    if gauer is not None:
+        a.axhline(gauer, color="k", ls="--", lw=1.0,
+                  label=f"Gauer: $(gH/2)^{{1/2}}$ = {gauer:.1f} m/s (H = {run.fall_height():.1f} m)")
     if "slab_speed" in run.metrics and np.isfinite(run.column("slab_speed")).any():
         a.plot(t, run.column("slab_speed"), color="#2ca02c",
                label="slab's centre of mass (metrics.csv slab_speed)")
+    if gauer is not None:  # room for the legend above the line
+        a.set_ylim(0.0, max(a.get_ylim()[1], 1.3 * gauer))
     a.set_xlabel("time (s)")
     a.set_ylabel("speed (m/s)")
     a.set_title("maximum flow speed")
@@ -679,6 +733,10 @@ def summary_table(run):
     if u_m is not None:
         rows.append((f"u_m, {source} (report)", f"{u_m:.6g}", "m/s"))
     length = run.path_length()
+    gauer = run.gauer_speed()
+    if gauer is not None:
+        rows.append(("fall height H (report)", f"{run.fall_height():.6g}", "m"))
+        rows.append(("(g H / 2)^1/2 (Gauer)", f"{gauer:.6g}", "m/s"))
     if length is not None:
         rows.append(("path length L (report)", f"{length:.6g}", "m"))
         rows.append(("1.5 L^1/2 (McClung & Gauer)", f"{MG_COEFFICIENT * math.sqrt(length):.6g}",
@@ -917,8 +975,21 @@ def write_report(run, quiet):
         "the field of Gaume et al. 2019, Fig. 6), and the fastest particle's own speed "
         "(metrics.csv <code>max_speed</code>; with pure FLIP it also carries particle noise); "
         "with a slab on a weak layer, the speed of the slab's centre of mass (metrics.csv "
-        "<code>slab_speed</code>: 0 while it rests, rising as the released slab leaves its bed). "
+        "<code>slab_speed</code>: 0 while it rests, rising as the released slab leaves its bed); "
+        "dashed: Gauer's estimate of the maximum speed, (g H / 2)<sup>1/2</sup>, with H the drop "
+        "from the release's highest point to the deposit's farthest (Gaume et al. 2019 compare "
+        "with it: ≈ 8 m/s on their 25 m and 22 m slopes, ≈ 27 m/s on the 480 m path). "
         "Right: total kinetic energy" + unit + " (metrics.csv).")))
+    deposit = run.deposit()
+    if deposit is not None:
+        written.append(deposit_chart(run, out / "deposit.png", deposit))
+        sections.append(figure(written[-1], (
+            "The snow's vertical depth along the path in the first and the last particle frame "
+            "(report/data/deposit.csv: the volume of the particles in each dx cell along x, as "
+            "seeded, per metre along x" + (" and per metre of the width that holds snow there"
+            if run.dimension == 3 else "") + "; densification is not counted): blue where snow "
+            "left (the release and what it eroded), red where it arrived (the deposit); dashed: "
+            "summary.json <code>runout_x</code>.")))
 
     sections.append("<h2>McClung &amp; Gauer diagram and α-angle</h2>")
     written.append(mcclung_gauer_chart(run, out / "mcclung_gauer.png"))

@@ -1,4 +1,6 @@
-// firn report's C++ side: weak-layer binning and the choice of map frames, on synthetic data.
+// firn report's C++ side: weak-layer binning, the choice of map frames and the snow depth along
+// the path, on synthetic data.
+#include "report/deposit_profile.h"
 #include "report/map_frames.h"
 #include "report/weak_layer_map.h"
 
@@ -84,6 +86,30 @@ TEST_CASE("3D weak-layer cells form an x-z raster in z-then-x order", "[report]"
     CHECK(cells[1].x == Approx(0.05));
     CHECK(cells[2].x == Approx(0.15));
     CHECK(cells[2].failedFraction == 1.0);
+}
+
+TEST_CASE("snow depth along x: the particles' seeded volume per metre along x and of the width "
+          "holding snow",
+          "[report]") {
+    // dx 0.1, 4 particles per cell. 2D: a 0.3 m layer (3 cells x 4 particles) over x 1.0-1.1 and
+    // one particle at x 1.25: depth = particles * dx^2 / 4 / dx.
+    ParticleFrame flat;
+    for (int k = 0; k < 12; ++k) addParticle(flat, {1.05f, 0.025f * float(k), 0.f}, kSlab);
+    addParticle(flat, {1.25f, 0.5f, 0.f}, kWeak);
+    auto cells = snowDepthAlongX(flat, 0.1, 2, 4);
+    REQUIRE(cells.size() == 2);
+    CHECK(cells[0].x == Approx(1.05));
+    CHECK(cells[0].depth == Approx(0.3));
+    CHECK(cells[1].x == Approx(1.25));
+    CHECK(cells[1].depth == Approx(0.025));
+    // 3D, 8 particles per cell: a 0.2 m deep column two z cells wide (4 cells of 8) at x 2.0-2.1
+    // reads 0.2 m, not twice that: the depth is per metre of the width holding snow.
+    ParticleFrame wide;
+    for (int k = 0; k < 32; ++k)
+        addParticle(wide, {2.05f, 0.0125f * float(k % 16), k < 16 ? 0.05f : 0.15f}, kSlab);
+    cells = snowDepthAlongX(wide, 0.1, 3, 8);
+    REQUIRE(cells.size() == 1);
+    CHECK(cells[0].depth == Approx(0.2));
 }
 
 TEST_CASE("map frames: evenly spaced while the crack runs, or at requested times", "[report]") {

@@ -5,6 +5,7 @@
 #include <firn/io.h>
 #include <firn/scene.h>
 
+#include "report/deposit_profile.h"
 #include "report/map_frames.h"
 #include "report/metrics_table.h"
 #include "report/particle_reader.h"
@@ -135,11 +136,28 @@ private:
 };
 
 /// The release's highest point (first frame) and the deposit's farthest point along x (last
-/// frame): the ends of the path that summary.json's alpha angle measures.
+/// frame): the ends of the path that summary.json's alpha angle measures; and the snow's depth
+/// along x in those two frames.
 struct PathEnds {
     double topX = std::numeric_limits<double>::quiet_NaN(), topY = topX;
     double farX = topX, farY = topX;
+    std::vector<report::DepthCell> depthStart, depthEnd;
+    double startTime = std::numeric_limits<double>::quiet_NaN(), endTime = startTime; ///< s
 };
+
+/// deposit.csv: x (cell centre, m) and the snow's vertical depth there in the first and the last
+/// particle frame (m; empty where that frame has no snow).
+std::string depositCsv(const PathEnds& ends) {
+    std::map<double, std::pair<double, double>> rows; // x -> (start, end)
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& c : ends.depthStart) rows.emplace(c.x, std::pair{c.depth, nan});
+    for (const auto& c : ends.depthEnd)
+        rows.try_emplace(c.x, nan, nan).first->second.second = c.depth;
+    std::string text = "x,depth_start,depth_end\n";
+    for (const auto& [x, depth] : rows)
+        text += csvNumber(x) + "," + csvNumber(depth.first) + "," + csvNumber(depth.second) + "\n";
+    return text;
+}
 
 void findTop(const ParticleFrame& f, PathEnds& ends) {
     for (std::size_t i = 0; i < f.P.size(); ++i) {
@@ -176,8 +194,18 @@ void reduceFrames(const RunFolder& run, const std::vector<int>& mapFrames,
     progress(options, "reading " + std::to_string(toRead.size()) + " particle frames");
     for (int frame : toRead) {
         const CachedFrame cached = report::readParticleFrame(run.framePath(frame));
-        if (frame == run.frames.front()) findTop(cached.particles, ends);
-        if (frame == run.frames.back()) findFar(cached.particles, ends);
+        const double dx = run.scene.grid.dx;
+        const int dim = run.scene.simulation.dimension, ppc = run.scene.grid.particlesPerCell;
+        if (frame == run.frames.front()) {
+            findTop(cached.particles, ends);
+            ends.depthStart = report::snowDepthAlongX(cached.particles, dx, dim, ppc);
+            ends.startTime = cached.info.time;
+        }
+        if (frame == run.frames.back()) {
+            findFar(cached.particles, ends);
+            ends.depthEnd = report::snowDepthAlongX(cached.particles, dx, dim, ppc);
+            ends.endTime = cached.info.time;
+        }
         if (hasWeakLayer && (everyFrame || contains(mapFrames, frame))) {
             table.add(cached,
                       report::binWeakLayer(cached.particles, run.isWeakLayer, run.scene.grid.dx,
@@ -206,6 +234,8 @@ std::string reportJson(const RunFolder& run, const ReportOptions& options, const
     json.set("release_top_y", ends.topY);
     json.set("deposit_far_x", ends.farX);
     json.set("deposit_far_y", ends.farY);
+    json.set("deposit_start_time", ends.startTime); // deposit.csv's two frames, s
+    json.set("deposit_end_time", ends.endTime);
     return json.str();
 }
 
@@ -228,6 +258,7 @@ std::vector<double> writeReportTables(const ReportOptions& options, const std::s
     writeFileAtomic(dataDir + "/weak_layer.csv", table.text());
     writeFileAtomic(dataDir + "/map_frames.csv", mapFramesCsv(run, mapFrames));
     writeFileAtomic(dataDir + "/report.json", reportJson(run, options, ends));
+    writeFileAtomic(dataDir + "/deposit.csv", depositCsv(ends));
     std::vector<double> mapTimes;
     for (int frame : mapFrames) {
         const auto at = std::find(run.frames.begin(), run.frames.end(), frame) - run.frames.begin();

@@ -303,7 +303,7 @@ def check_pst(binary, work):
     check(np.mean(weak["failed_fraction"][up]) > 0.5 > np.mean(weak["failed_fraction"][down]),
           "failed behind the crack tip, elastic well ahead of it")
 
-    check_html(report_dir, expected_images=6)
+    check_html(report_dir, expected_images=7)
     for name in ("failure_maps", "failure_profiles", "crack", "slab_fractures", "flow",
                  "mcclung_gauer"):
         check_png(report_dir / f"{name}.png")
@@ -344,7 +344,7 @@ def check_pst_3d(binary, work):
           f"3D: {arrival['x'].size} crack_arrival.csv cells on the layer's plan beyond the cut")
     r = np.corrcoef(arrival["x"], arrival["time"])[0, 1] if arrival["x"].size > 2 else 0.0
     check(r > 0.5, f"3D: the crack arrives later farther from the cut (correlation {r:.2f})")
-    check_html(report_dir, expected_images=6)
+    check_html(report_dir, expected_images=7)
     check_png(report_dir / "failure_maps.png")
     check_png(report_dir / "slab_fractures.png")
     check_png(report_dir / "crack_arrival.png")
@@ -358,7 +358,7 @@ def check_slide(binary, work):
         f.write('\n[[terrain]]\nshape = "heightfield"\nfile = "not-here.asc"\n')
     firn(binary, "report", str(out), "--quiet")
     report_dir = out / "report"
-    page = check_html(report_dir, expected_images=2)
+    page = check_html(report_dir, expected_images=3)
     check("no weak layer" in page, "a run without a weak layer says so instead of maps")
     check("no slab" in page, "a run without a snow slab says so instead of slab fractures")
     check(not (report_dir / "slab_fractures.png").exists(), "no slab fracture chart is drawn")
@@ -369,6 +369,24 @@ def check_slide(binary, work):
     check(red.sum() > 100, f"the run's point is drawn ({red.sum()} red pixels)")
     info = json.loads((report_dir / "data" / "report.json").read_text())
     check(info["deposit_far_x"] > info["release_top_x"], "the deposit lies down-slope of the top")
+    # The snow's depth along the path (deposit.csv): in 2D each particle is dx^2 / 4 as seeded
+    # (dx 0.1, 4 per cell), so depth times dx summed along x is the particle count times that,
+    # the same at the start and the end (nothing leaves); the slide has moved down-slope and its
+    # deposit ends at runout_x (within a cell).
+    depth = read_table(report_dir / "data" / "deposit.csv")
+    volume = [np.nansum(depth[k]) * 0.1 for k in ("depth_start", "depth_end")]
+    particles = json.loads((out / "summary.json").read_text())["particles"]
+    check(abs(volume[0] - particles * 0.01 / 4) < 1e-6 and abs(volume[1] - volume[0]) < 1e-6,
+          f"deposit.csv holds every particle's volume at both ends ({volume[0]:.4f}, "
+          f"{volume[1]:.4f} m^2; {particles} particles: {particles * 0.01 / 4:.4f})")
+    x_end = depth["x"][np.isfinite(depth["depth_end"])]
+    x_start = depth["x"][np.isfinite(depth["depth_start"])]
+    runout = json.loads((out / "summary.json").read_text())["runout_x"]
+    check(x_end.max() > x_start.max() and abs(x_end.max() - runout) <= 0.1,
+          f"the deposit reaches past the release to runout_x (last cell {x_end.max():.3g} m, "
+          f"runout_x {runout:.3g} m, release ended at {x_start.max():.3g} m)")
+    check_png(report_dir / "deposit.png")
+    check("(g H / 2)^1/2 (Gauer)" in page, "the summary table gives Gauer's speed")
     check("u_m, fastest particle (report)" in page,
           "without velocity volumes u_m is the fastest particle's speed")
 
@@ -398,7 +416,7 @@ def check_pulled_slab(binary, work):
           "metrics.csv counts the fractures and the blocks")
     firn(binary, "report", str(out), "--quiet")
     report_dir = out / "report"
-    page = check_html(report_dir, expected_images=3)
+    page = check_html(report_dir, expected_images=4)
     check("distance behind crack tip" in page and "No slab fracture" not in page,
           "the report lists the slab fractures")
     image = check_png(report_dir / "slab_fractures.png")
