@@ -386,7 +386,11 @@ def check_slide(binary, work):
           f"the deposit reaches past the release to runout_x (last cell {x_end.max():.3g} m, "
           f"runout_x {runout:.3g} m, release ended at {x_start.max():.3g} m)")
     check_png(report_dir / "deposit.png")
-    check("(g H / 2)^1/2 (Gauer)" in page, "the summary table gives Gauer's speed")
+    gauer = re.search(r"\(g H / 2\)\^1/2 \(Gauer\)</td><td class=num>([0-9.eE+-]+)", page)
+    height = info["release_top_y"] - info["deposit_far_y"]
+    check(gauer is not None and abs(float(gauer.group(1)) - (9.81 * height / 2) ** 0.5) < 1e-3,
+          f"the summary table gives Gauer's (g H / 2)^1/2 for H = {height:.3g} m "
+          f"({gauer and gauer.group(1)} m/s)")
     check("u_m, fastest particle (report)" in page,
           "without velocity volumes u_m is the fastest particle's speed")
 
