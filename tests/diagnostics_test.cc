@@ -196,6 +196,37 @@ TEST_CASE("the crack's arrival over the bed: each cell once, when its particles 
     CHECK(resumed.cells().front().time == 0.12);
 }
 
+TEST_CASE("slab_speed is the speed of the slab's centre of mass; the weak layer and a block do "
+          "not count",
+          "[diagnostics]") {
+    const std::string text =
+        "[simulation]\nname = \"slab\"\ndimension = 2\nend_time = 0.1\n"
+        "[grid]\ndx = 0.1\nparticles_per_cell = 4\n"
+        "[[material]]\nname = \"slab\"\nmodel = \"snow\"\n"
+        "[[material]]\nname = \"weak\"\nmodel = \"weak_layer\"\n"
+        "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
+        "[[body]]\nname = \"weak\"\nmaterial = \"weak\"\nshape = \"layer\"\nthickness = 0.2\n"
+        "x_range = [0.0, 2.0]\n"
+        "[[body]]\nname = \"slab\"\nmaterial = \"slab\"\nshape = \"layer\"\n"
+        "on_top_of = \"weak\"\nthickness = 0.4\nx_range = [0.0, 2.0]\n"
+        "[[material]]\nname = \"block\"\nmodel = \"snow\"\n"
+        "[[body]]\nname = \"block\"\nmaterial = \"block\"\nshape = \"box\"\n"
+        "min = [0.5, 1.0]\nmax = [1.0, 1.5]\n";
+    auto world = buildWorld(test::sceneFromText(text), BuildStage::Seeded);
+    ParticleSet& ps = world->particles;
+    CHECK(computeDiagnostics(*world).slabSpeed() == 0.0); // seeded at rest
+    // The slab's left half moves at (3, 4) m/s and its right half at rest: its centre of mass
+    // at half of 5 m/s (equal masses). The weak layer and the block (a snow material of its own,
+    // not a layer on a weak layer, as the slope scenes' triggers) move fast and do not count.
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+        const Material& m = world->materials[ps.material[i]];
+        const bool slab = m.slab;
+        if (slab && ps.x[i][0] < 1.f) ps.v[i] = Vec3f(3.f, 4.f, 0.f);
+        if (!slab) ps.v[i] = Vec3f(-20.f, 0.f, 0.f);
+    }
+    CHECK(computeDiagnostics(*world).slabSpeed() == Approx(2.5).epsilon(1e-5));
+}
+
 TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",
           "[diagnostics]") {
     auto world =
