@@ -147,7 +147,7 @@ TEST_CASE("the crack tip is timed to the step from the cells' crack times", "[di
 }
 
 TEST_CASE("the crack's arrival over the bed: each cell once, when its particles cracked, no "
-          "earlier than the frame before; cells holding only carried particles left out",
+          "earlier than the frame before, and cells holding only carried particles left out",
           "[diagnostics]") {
     // (cell (x, z), earliest and latest crack time of its cracked particles)
     using Plan = std::vector<std::pair<std::pair<std::int64_t, std::int64_t>, CellCrackTimes>>;
@@ -196,7 +196,7 @@ TEST_CASE("the crack's arrival over the bed: each cell once, when its particles 
     CHECK(resumed.cells().front().time == 0.12);
 }
 
-TEST_CASE("slab_speed is the speed of the slab's centre of mass; the weak layer and a block do "
+TEST_CASE("slab_speed is the speed of the slab's centre of mass, the weak layer and a block do "
           "not count",
           "[diagnostics]") {
     const std::string text =
