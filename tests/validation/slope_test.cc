@@ -176,7 +176,7 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
     // scenes/slope3d.toml at its dx 0.1 and with its materials, trimmed for CI: a 1 m wide slice
     // (shipped: 3 m) with the layers over x = 4.5-12 m (shipped 0.5-18 m; the thickness profile
     // and noise as shipped) and a 0.45 m ball (shipped 0.8 m) 0.3 m above the slab at mid-width;
-    // 0.6 s simulated, 64 000 particles, about 60 s on 2 cores (13 s of it settling).
+    // 0.6 s simulated, 60 631 particles, about 60 s on 2 cores (13 s of it settling).
     test::TempDir dir("firn-slope3d");
     const SceneDesc scene =
         loadScene(kSlope3d, {"simulation.end_time=0.6", "body.base.x_range=[4.0, 13.0]",
@@ -189,7 +189,7 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
     // The ball falls 0.3 m (0.25 s) and touches the slab (26 degrees there) at x ~ 8.5 m.
     checkRemoteTriggering(run, {4.5, 12.0, 0.25, 8.5, 0.1});
     // The slab breaks up (it was one block) and leaves its bed: its centre of mass moves at
-    // 0.6 m/s at 0.6 s, still accelerating (the shipped scene slides at 5.4 m/s by 1.5 s).
+    // 0.60 m/s at 0.6 s, still accelerating (the shipped scene slides at 5.4 m/s by 1.5 s).
     // At least 0.3 m/s: half the measured speed, for a release that starts a frame later.
     const auto& rows = run.rows;
     CHECK(rows.front().at("slab_blocks") == 1);
