@@ -656,9 +656,9 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
         << "  start: "
         << (scene.simulation.settle
                 ? "settles under gravity before t = 0 (at most " +
-                      std::to_string(scene.simulation.settleMaxTime) + " s of settling)"
+                      formatNumber(scene.simulation.settleMaxTime) + " s of settling)"
             : scene.simulation.gravityRamp > 0
-                ? "gravity ramped over " + std::to_string(scene.simulation.gravityRamp) + " s"
+                ? "gravity ramped over " + formatNumber(scene.simulation.gravityRamp) + " s"
                 : "as seeded, full gravity at t = 0")
         << "\n";
     for (const CutDesc& cut : scene.cuts)
