@@ -176,7 +176,7 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
     // scenes/slope3d.toml at its dx 0.1 and with its materials, trimmed for CI: a 1 m wide slice
     // (shipped: 3 m) with the layers over x = 4.5-12 m (shipped 0.5-18 m; the thickness profile
     // and noise as shipped) and a 0.45 m ball (shipped 0.8 m) 0.3 m above the slab at mid-width;
-    // 0.6 s simulated, 60 631 particles, about 60 s on 2 cores (13 s of it settling).
+    // 0.6 s simulated, 60 631 particles, about 70 s on 2 cores (36 s of it settling).
     test::TempDir dir("firn-slope3d");
     const SceneDesc scene =
         loadScene(kSlope3d, {"simulation.end_time=0.6", "body.base.x_range=[4.0, 13.0]",
@@ -188,18 +188,25 @@ TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to th
     const RunFiles run = runQuietly(scene, dir.path());
     // The ball falls 0.3 m (0.25 s) and touches the slab (26 degrees there) at x ~ 8.5 m.
     checkRemoteTriggering(run, {4.5, 12.0, 0.25, 8.5, 0.1});
-    // The slab breaks up (it was one block) and leaves its bed: its centre of mass moves at
-    // 0.60 m/s at 0.6 s, still accelerating (the narrow slice releases sooner than the shipped
-    // 3 m wide slope, whose slab moves at 0.27 m/s at 1.1 s).
-    // At least 0.3 m/s: half the measured speed, for a release that starts a frame later.
+    // The slab breaks up (it was one block) and leaves its bed: its centre of mass, at rest until
+    // the crack has passed, peaks at 0.69 m/s at 0.52 s and still moves at 0.62 m/s at 0.6 s (the
+    // narrow slice releases sooner than the shipped 3 m wide slope; on this gentle slope at dx 0.1
+    // the grid then holds the slab back: README "Slope-scale runs").
+    // Peak above 0.5 m/s and the end above 0.3 m/s: margins of 0.2 and 0.3 m/s for a release that
+    // starts a frame later or a slab that slows a little sooner.
     const auto& rows = run.rows;
     CHECK(rows.front().at("slab_blocks") == 1);
     CHECK(summaryNumber(run.summary, "max_slab_blocks") >= 2);
+    double peakSpeed = 0, peakTime = 0;
+    for (const auto& row : rows)
+        if (row.at("slab_speed") > peakSpeed)
+            peakSpeed = row.at("slab_speed"), peakTime = row.at("time");
     const double slabSpeed = rows.back().at("slab_speed");
-    INFO("slab speed " << slabSpeed << " m/s at " << rows.back().at("time") << " s, "
-                       << rows[rows.size() - 3].at("slab_speed") << " m/s two frames before");
+    INFO("slab speed " << slabSpeed << " m/s at " << rows.back().at("time") << " s, peak "
+                       << peakSpeed << " m/s at " << peakTime << " s");
+    CHECK(peakSpeed > 0.5);
+    CHECK(peakTime > 0.25 + 0.1);
     CHECK(slabSpeed > 0.3);
-    CHECK(slabSpeed > rows[rows.size() - 3].at("slab_speed"));
     // The crack's arrival over the bed (crack_arrival.csv): every cell of the layer's plan
     // (75 x 10 cells of 0.1 m; cells that only hold layer squeezed out of the free sides are left
     // out), first under the ball, and last at the layer's top and bottom ends, all after the
