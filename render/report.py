@@ -157,10 +157,25 @@ class Run:
     def has_crack(self):
         return bool(np.isfinite(self.column("crack_tip_x")).any())
 
+    def path_ends(self):
+        """(x, y) of the release's highest point and of the deposit's farthest one, or None.
+        Of the snow that moved, from summary.json (release_top_x/y, runout_x/y, since
+        2026-12-04), so that a base or a slope that never moved is neither; for older runs, of
+        every particle, from the report's first and last particle frames (report.json)."""
+        keys = (("release_top_x", "release_top_y", "runout_x", "runout_y")
+                if "runout_y" in self.summary else
+                ("release_top_x", "release_top_y", "deposit_far_x", "deposit_far_y"))
+        source = self.summary if "runout_y" in self.summary else self.info
+        ends = [source.get(k) for k in keys]
+        return None if any(v is None for v in ends) else ((ends[0], ends[1]), (ends[2], ends[3]))
+
     def fall_height(self):
         """H: the drop from the release's highest point to the deposit's farthest one, m."""
-        top, far = self.info.get("release_top_y"), self.info.get("deposit_far_y")
-        return None if top is None or far is None or top <= far else top - far
+        ends = self.path_ends()
+        if ends is None:
+            return None
+        (_, top), (_, far) = ends
+        return None if top <= far else top - far
 
     def gauer_speed(self):
         """Gauer's estimate of the maximum flow speed, u_max = (g H / 2)^(1/2), m/s, with H the
@@ -181,11 +196,10 @@ class Run:
 
     def path_length(self):
         """L: straight distance from the release's highest point to the deposit's farthest one."""
-        ends = [self.info.get(k) for k in
-                ("release_top_x", "release_top_y", "deposit_far_x", "deposit_far_y")]
-        if any(v is None for v in ends):
+        ends = self.path_ends()
+        if ends is None:
             return None
-        x0, y0, x1, y1 = ends
+        (x0, y0), (x1, y1) = ends
         return math.hypot(x1 - x0, y1 - y0)
 
 
@@ -977,7 +991,8 @@ def write_report(run, quiet):
         "with a slab on a weak layer, the speed of the slab's centre of mass (metrics.csv "
         "<code>slab_speed</code>: 0 while it rests, rising as the released slab leaves its bed); "
         "dashed: Gauer's estimate of the maximum speed, (g H / 2)<sup>1/2</sup>, with H the drop "
-        "from the release's highest point to the deposit's farthest (Gaume et al. 2019 compare "
+        "from the release's highest point to the deposit's farthest, both of the snow that moved "
+        "(summary.json <code>release_top_y</code>, <code>runout_y</code>; Gaume et al. 2019 compare "
         "with it: ≈ 8 m/s on their 25 m and 22 m slopes, ≈ 27 m/s on the 480 m path). "
         "Right: total kinetic energy" + unit + " (metrics.csv).")))
     deposit = run.deposit()

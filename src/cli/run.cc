@@ -348,6 +348,9 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     writeSlabSummary(w, s.slab, j);
     // Of the snow that moved (kFlagMoved): a base or a slope that never moved is no deposit.
     j.set("runout_x", inScene(w, 0, s.last.movedFarX));
+    j.set("runout_y", inScene(w, 1, s.last.movedFarY));
+    j.set("release_top_x", inScene(w, 0, s.releaseTopX));
+    j.set("release_top_y", inScene(w, 1, s.releaseTopY));
     j.set("alpha_angle_deg",
           alphaAngleDeg(s.releaseTopX, s.releaseTopY, s.last.movedFarX, s.last.movedFarY));
     // The energy-line angle of the centre of mass (V11): its drop over its horizontal path.

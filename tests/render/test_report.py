@@ -10,6 +10,7 @@ import base64
 import csv
 import io
 import json
+import math
 import pathlib
 import re
 import shutil
@@ -124,11 +125,24 @@ shape = "profile"
 points = [[0.0, 13.0], [5.0, 10.0], [12.0, 4.0], [18.0, 1.0], [25.0, 0.0], [40.0, 0.0]]
 friction = 0.3
 
+[[material]]
+name = "ice"
+model = "elastic"
+density = 900.0
+youngs_modulus = 1.0e7
+
 [[body]]
 material = "snow"
 shape = "layer"
 thickness = 0.5
 x_range = [3.0, 12.0]
+
+# Snow that never moves, beyond the slide's reach: no part of the release or the deposit.
+[[body]]
+material = "ice"
+shape = "layer"
+thickness = 0.3
+x_range = [32.0, 38.0]
 
 [output]
 volumes = []
@@ -379,15 +393,28 @@ def check_slide(binary, work):
     check(abs(volume[0] - particles * 0.01 / 4) < 1e-6 and abs(volume[1] - volume[0]) < 1e-6,
           f"deposit.csv holds every particle's volume at both ends ({volume[0]:.4f}, "
           f"{volume[1]:.4f} m^2; {particles} particles: {particles * 0.01 / 4:.4f})")
-    x_end = depth["x"][np.isfinite(depth["depth_end"])]
-    x_start = depth["x"][np.isfinite(depth["depth_start"])]
+    slide = depth["x"] < 30.0  # the ice beyond x = 32 m stays where it was
+    x_end = depth["x"][slide & np.isfinite(depth["depth_end"])]
+    x_start = depth["x"][slide & np.isfinite(depth["depth_start"])]
     runout = json.loads((out / "summary.json").read_text())["runout_x"]
     check(x_end.max() > x_start.max() and abs(x_end.max() - runout) <= 0.1,
           f"the deposit reaches past the release to runout_x (last cell {x_end.max():.3g} m, "
           f"runout_x {runout:.3g} m, release ended at {x_start.max():.3g} m)")
     check_png(report_dir / "deposit.png")
+    # H and L run from the release's top to the deposit's farthest point of the snow that moved
+    # (summary.json), not to the ice that never did (report.json's ends, of every particle).
+    summary = json.loads((out / "summary.json").read_text())
+    check(info["deposit_far_x"] > 37.9 and summary["runout_x"] < 30.0,
+          f"report.json's farthest particle is the still ice ({info['deposit_far_x']:.3g} m), "
+          f"runout_x the slide's ({summary['runout_x']:.3g} m)")
     gauer = re.search(r"\(g H / 2\)\^1/2 \(Gauer\)</td><td class=num>([0-9.eE+-]+)", page)
-    height = info["release_top_y"] - info["deposit_far_y"]
+    height = summary["release_top_y"] - summary["runout_y"]
+    check(height < info["release_top_y"] - info["deposit_far_y"] - 1.0,
+          f"the moved snow's drop ({height:.3g} m) is not the drop to the still ice")
+    length = re.search(r"path length L \(report\)</td><td class=num>([0-9.eE+-]+)", page)
+    expected = math.hypot(summary["runout_x"] - summary["release_top_x"], height)
+    check(length is not None and abs(float(length.group(1)) - expected) < 1e-3 * expected,
+          f"L is the moved snow's ({length and length.group(1)} m, expected {expected:.4g})")
     check(gauer is not None and abs(float(gauer.group(1)) - (9.81 * height / 2) ** 0.5) < 1e-3,
           f"the summary table gives Gauer's (g H / 2)^1/2 for H = {height:.3g} m "
           f"({gauer and gauer.group(1)} m/s)")

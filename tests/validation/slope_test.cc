@@ -294,6 +294,15 @@ TEST_CASE("V9 long path: a snow volume released on the 480 m path flows at ~27 m
     INFO("alpha " << alpha << " deg");
     CHECK(alpha > 21.8);
     CHECK(alpha < 30.0);
+    // The angle's two ends are in summary.json (the report's Gauer H and L use them): the
+    // release's top, up-slope and above the deposit's farthest point, at runout_x.
+    const double topX = summaryNumber(summary, "release_top_x");
+    const double topY = summaryNumber(summary, "release_top_y");
+    const double farX = summaryNumber(summary, "runout_x");
+    const double farY = summaryNumber(summary, "runout_y");
+    CHECK(topX < farX);
+    CHECK(topY > farY);
+    CHECK(std::atan2(topY - farY, farX - topX) * 180.0 / M_PI == Approx(alpha).margin(1e-9));
     // It stops: the deposit is at rest (the last frames are at t = 36-40 s).
     CHECK(rows.back().at("max_speed") < 0.5);
     // Granulation: the released volume breaks into several intact blocks (paper: "a
