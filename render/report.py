@@ -160,7 +160,7 @@ class Run:
     def path_ends(self):
         """(x, y) of the release's highest point and of the deposit's farthest one, or None.
         Of the snow that moved, from summary.json (release_top_x/y, runout_x/y, since
-        2026-12-04), so that a base or a slope that never moved is neither; for older runs, of
+        2026-12-03), so that a base or a slope that never moved is neither; for older runs, of
         every particle, from the report's first and last particle frames (report.json)."""
         keys = (("release_top_x", "release_top_y", "runout_x", "runout_y")
                 if "runout_y" in self.summary else
