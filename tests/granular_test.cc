@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 using namespace firn;
@@ -225,4 +226,45 @@ TEST_CASE("Mohr-Coulomb: staysElastic never skips a state the return mapping wou
         // The 2D bound is exact, the 3D one (over Lode angles) still skips most inside states.
         CHECK(skipped > 300);
     }
+}
+
+TEST_CASE("mu(I): the friction angle runs from phi_s at rest to phi_2 at large inertial number",
+          "[material][granular]") {
+    MaterialDesc desc;
+    desc.model = MaterialModel::Granular;
+    desc.density = 1500.0;
+    desc.frictionAngle = 22.0;
+    desc.dynamicFrictionAngle = 40.0;
+    desc.grainDiameter = 0.002;
+    desc.inertialNumberScale = 0.3;
+    const Material m = Material::fromDesc(desc, 2);
+    REQUIRE(m.rateDependent());
+    const auto sinDeg = [](float deg) { return std::sin(deg * kPi / 180.f); };
+
+    // I = shear rate d / sqrt(p / rho): 10/s, 2 mm, 1500 Pa and 1500 kg/m^3 give 0.02 exactly.
+    CHECK(inertialNumber(m, 10.f, 1500.f) == Approx(0.02f).epsilon(1e-6));
+    // It doubles with the shear rate and halves with four times the pressure (GDR MiDi 2004).
+    CHECK(inertialNumber(m, 20.f, 1500.f) == Approx(0.04f).epsilon(1e-6));
+    CHECK(inertialNumber(m, 10.f, 6000.f) == Approx(0.01f).epsilon(1e-6));
+    // No pressure (the free surface, tension): I is unbounded.
+    CHECK(std::isinf(inertialNumber(m, 10.f, 0.f)));
+
+    // Jop et al. 2006, eq. 2 in sin(phi): at rest phi_s; at I = I_0 halfway in sin(phi); as
+    // I grows without bound phi_2; in between it rises monotonically.
+    CHECK(frictionAngleAt(m, 0.f) == 22.f);
+    CHECK(sinDeg(frictionAngleAt(m, 0.3f)) ==
+          Approx(0.5f * (sinDeg(22.f) + sinDeg(40.f))).epsilon(1e-5));
+    CHECK(frictionAngleAt(m, std::numeric_limits<float>::infinity()) == Approx(40.f).epsilon(1e-5));
+    float previous = frictionAngleAt(m, 0.f);
+    for (float I = 1e-4f; I < 100.f; I *= 2.f) {
+        const float phi = frictionAngleAt(m, I);
+        CHECK(phi > previous);
+        CHECK(phi < 40.f);
+        previous = phi;
+    }
+
+    // Without a dynamic angle (a MaterialDesc left at its defaults) the friction ignores the rate.
+    const Material still = granular(2, 30.0);
+    CHECK_FALSE(still.rateDependent());
+    CHECK(frictionAngleAt(still, 10.f) == 30.f);
 }

@@ -479,6 +479,34 @@ friction_angle = 30
           "scenes/test.toml:16:1: error: body 1: radius: does not apply to shape \"box\"");
 }
 
+TEST_CASE("mu(I) friction: its keys, its default and its errors", "[scene][errors]") {
+    const std::string sand = R"([[material]]
+name = "sand"
+model = "granular"
+friction_angle = 30
+)";
+    // Without dynamic_friction_angle the friction is friction_angle at every rate.
+    const SceneDesc still = parseScene(sand, kPath);
+    CHECK(still.materials[0].dynamicFrictionAngle == 30.0);
+    CHECK(still.materials[0].origins.at("dynamic_friction_angle") ==
+          "default: friction_angle (rate-independent)");
+    const SceneDesc rated = parseScene(
+        sand + "dynamic_friction_angle = 40\ngrain_diameter = 0.002\ninertial_number_scale = 0.3\n",
+        kPath);
+    CHECK(rated.materials[0].dynamicFrictionAngle == 40.0);
+    CHECK(rated.materials[0].grainDiameter == 0.002);
+    CHECK(rated.materials[0].inertialNumberScale == 0.3);
+    CHECK(errorOf(sand + "dynamic_friction_angle = 25\n") ==
+          "scenes/test.toml:5:26: error: material \"sand\": dynamic_friction_angle: must not be "
+          "below friction_angle (30 degrees): mu(I) friction rises with the shear rate");
+    CHECK(errorOf(sand + "grain_diameter = 0.002\n") ==
+          "scenes/test.toml:5:18: error: material \"sand\": grain_diameter: has no effect without "
+          "dynamic_friction_angle (the mu(I) friction at large inertial number)");
+    CHECK(errorOf(sand + "inertial_number_scale = 0.3\n") ==
+          "scenes/test.toml:5:25: error: material \"sand\": inertial_number_scale: has no effect "
+          "without dynamic_friction_angle (the mu(I) friction at large inertial number)");
+}
+
 TEST_CASE("loadScene reads a file and names one it cannot open", "[scene]") {
     const std::string folder = sceneFolderWithDem();
     const std::string path = folder + "/load.toml";

@@ -256,7 +256,13 @@ TEST_CASE("Elastic and granular materials keep their defaults", "[scene][snow_pa
         CHECK(m.density == 250.0);
         CHECK(m.youngsModulus == 1.0e6);
         CHECK(m.poissonRatio == 0.3);
-        for (const MaterialParameter& p : materialParameters(m)) CHECK(p.origin == "default");
+        for (const MaterialParameter& p : materialParameters(m)) {
+            // mu(I)'s angle at large inertial number follows friction_angle unless given.
+            CHECK(p.origin == (std::string(p.key) == "dynamic_friction_angle"
+                                   ? "default: friction_angle (rate-independent)"
+                                   : "default"));
+        }
     }
     CHECK(scene.materials[1].frictionAngle == 30.0);
+    CHECK(scene.materials[1].dynamicFrictionAngle == 30.0);
 }

@@ -76,7 +76,12 @@ struct Material {
     float density = 0.f; ///< kg/m^3
     Lame lame;
     CamClayParams camClay;
-    float frictionAngleDeg = 30.f; ///< granular (Mohr-Coulomb friction angle)
+    float frictionAngleDeg = 30.f; ///< granular (Mohr-Coulomb friction angle; at rest with mu(I))
+    /// Granular mu(I): the Mohr-Coulomb angle at large inertial number; equal to
+    /// frictionAngleDeg when the friction does not depend on the shear rate.
+    float dynamicFrictionAngleDeg = 30.f;
+    float grainDiameter = 1.0e-3f;      ///< m, d of the inertial number
+    float inertialNumberScale = 0.279f; ///< I_0 of mu(I)
     int dim = 3;
     /// A slab for the slab-fracture detector: a `snow` material of a layer that lies on a weak
     /// layer, or every `snow` material of a scene without a weak layer (set by buildWorld). A
@@ -88,6 +93,10 @@ struct Material {
     PlasticState initialState() const;
     /// P-wave speed sqrt((lambda + 2 mu) / rho), for the CFL time step.
     float pWaveSpeed() const;
+    /// Granular with a friction that rises with the inertial number (mu(I)).
+    bool rateDependent() const {
+        return model == MaterialModel::Granular && dynamicFrictionAngleDeg > frictionAngleDeg;
+    }
 };
 
 /// Principal Kirchhoff stresses tau_i = 2 mu eps_i + lambda tr(eps) (Hencky / St. Venant-Kirchhoff
@@ -134,6 +143,17 @@ ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
 /// (de Souza Neto et al. 2008, Box 8.1). 2D is plane strain (see granular.cc).
 ReturnMapResult returnMapMohrCoulomb(const Material& m, const Vec3f& epsTrial,
                                      const PlasticState& state);
+/// Inertial number I = shearRate d / sqrt(p / rho) (GDR MiDi 2004), with the material's grain
+/// diameter d and density rho; `shearRate` = sqrt(2 D':D') (1/s, simple shear: its rate),
+/// `pressure` in Pa. Infinite at p <= 0 (the free surface: the apex takes that state anyway).
+float inertialNumber(const Material& m, float shearRate, float pressure);
+
+/// The mu(I) friction as a Mohr-Coulomb angle in degrees: sin(phi) runs from sin(phi_s) at rest
+/// to sin(phi_2) as I passes I_0, sin(phi) = sin(phi_s) + (sin(phi_2) - sin(phi_s)) / (1 + I_0 / I)
+/// (Jop, Forterre & Pouliquen 2006, eq. 2, with mu = sin(phi): the simple-shear friction of a
+/// non-dilatant Mohr-Coulomb material). frictionAngleDeg when the material is rate-independent.
+float frictionAngleAt(const Material& m, float inertialNumber);
+
 /// An upper bound on f / 2 of the granular model at compressive strain trace `trEps` and
 /// deviatoric norm `devNorm` over all Lode angles (exact in 2D): <= 0 means inside.
 float mohrCoulombYieldBound(const Material& m, float trEps, float devNorm);

@@ -92,7 +92,12 @@ struct MaterialDesc {
     double hardening = 5.0;                 ///< xi
     double softening = 1.0;                 ///< alpha (weak layer)
     double dynamicCriticalStateSlope = 1.2; ///< M_d (weak layer)
-    double frictionAngle = 30.0;            ///< degrees (granular)
+    double frictionAngle = 30.0;            ///< degrees (granular; at rest with mu(I))
+    /// Granular mu(I) rheology: the friction angle at large inertial number (degrees); the
+    /// reader sets it to frictionAngle when absent, which makes the friction rate-independent.
+    double dynamicFrictionAngle = 30.0;
+    double grainDiameter = 1.0e-3;      ///< m (granular mu(I): d in I)
+    double inertialNumberScale = 0.279; ///< I_0 of mu(I) (Jop et al. 2006, glass beads)
     SourceLoc loc;
     /// Where each parameter's value came from, by scene key: "scene file line 12", "--set",
     /// "table: <law, citation>" or "default" (a key absent here is "default").

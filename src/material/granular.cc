@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 namespace firn {
 
@@ -117,6 +118,20 @@ ReturnMapResult returnSpace(const Material& m, const Vec3f& epsTrial, const Plas
 }
 
 } // namespace
+
+float inertialNumber(const Material& m, float shearRate, float pressure) {
+    if (!(pressure > 0.f)) return std::numeric_limits<float>::infinity();
+    return shearRate * m.grainDiameter / std::sqrt(pressure / m.density);
+}
+
+float frictionAngleAt(const Material& m, float inertialNumber) {
+    if (!m.rateDependent() || !(inertialNumber > 0.f)) return m.frictionAngleDeg;
+    const float sinStatic = sinFriction(m);
+    const float sinDynamic = std::sin(m.dynamicFrictionAngleDeg * kPi / 180.f);
+    const float sinPhi =
+        sinStatic + (sinDynamic - sinStatic) / (1.f + m.inertialNumberScale / inertialNumber);
+    return std::asin(sinPhi) * 180.f / kPi;
+}
 
 float mohrCoulombYieldBound(const Material& m, float trEps, float devNorm) {
     // Half of f over the extreme pair: the Mohr circle radius mu (e_max - e_min) plus its centre

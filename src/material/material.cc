@@ -43,6 +43,11 @@ Material Material::fromDesc(const MaterialDesc& desc, int dim) {
     m.camClay.Md = float(desc.dynamicCriticalStateSlope);
     m.camClay.p0Initial = float(desc.initialP0);
     m.frictionAngleDeg = float(desc.frictionAngle);
+    // Below the angle at rest (a MaterialDesc built in code, left at its defaults) mu(I) is off;
+    // the scene reader rejects it.
+    m.dynamicFrictionAngleDeg = float(std::max(desc.dynamicFrictionAngle, desc.frictionAngle));
+    m.grainDiameter = float(desc.grainDiameter);
+    m.inertialNumberScale = float(desc.inertialNumberScale);
     m.dim = dim;
     return m;
 }

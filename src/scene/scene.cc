@@ -73,6 +73,10 @@ const MaterialField kMaterialFields[] = {
     {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope, Range::positive(),
      kWeakLayer, ""},
     {"friction_angle", &MaterialDesc::frictionAngle, Range::open(0.0, 90.0), kGranular, "degrees"},
+    {"dynamic_friction_angle", &MaterialDesc::dynamicFrictionAngle, Range::open(0.0, 90.0),
+     kGranular, "degrees"},
+    {"grain_diameter", &MaterialDesc::grainDiameter, Range::positive(), kGranular, "m"},
+    {"inertial_number_scale", &MaterialDesc::inertialNumberScale, Range::positive(), kGranular, ""},
 };
 
 // Keys that belong to one shape only; any other shape rejects them.
@@ -285,6 +289,24 @@ void applySnowTable(const TableReader& r, MaterialDesc& m) {
     }
 }
 
+// mu(I): without dynamic_friction_angle the friction is friction_angle at every rate.
+void checkRateDependence(TableReader& r, MaterialDesc& m) {
+    if (!given(m, "dynamic_friction_angle")) {
+        m.dynamicFrictionAngle = m.frictionAngle;
+        m.origins["dynamic_friction_angle"] = "default: friction_angle (rate-independent)";
+        for (const char* key : {"grain_diameter", "inertial_number_scale"}) {
+            if (given(m, key)) {
+                r.failAt(key, "has no effect without dynamic_friction_angle (the mu(I) "
+                              "friction at large inertial number)");
+            }
+        }
+    } else if (m.dynamicFrictionAngle < m.frictionAngle) {
+        r.failAt("dynamic_friction_angle",
+                 "must not be below friction_angle (" + formatNumber(m.frictionAngle) +
+                     " degrees): mu(I) friction rises with the shear rate");
+    }
+}
+
 MaterialDesc readMaterial(TableReader& r, const std::vector<MaterialDesc>& earlier) {
     MaterialDesc m;
     m.loc = r.headerLoc();
@@ -303,6 +325,7 @@ MaterialDesc readMaterial(TableReader& r, const std::vector<MaterialDesc>& earli
     if (m.model == MaterialModel::Snow || m.model == MaterialModel::WeakLayer) {
         applySnowTable(r, m);
     }
+    if (m.model == MaterialModel::Granular) checkRateDependence(r, m);
     r.finish();
     return m;
 }

@@ -67,6 +67,24 @@ void markFractureTime(const Material& mat, double time, PlasticState& state) {
     state.fractureTime = float(time);
 }
 
+/// A mu(I) granular material with the friction angle of this particle's inertial number: the
+/// shear rate sqrt(2 D':D') from the velocity gradient C of the last G2P (D its symmetric part,
+/// zero out of plane in 2D), the pressure from the trial strain, p = -(lambda + 2 mu / 3) tr(eps)
+/// in 3D and in plane strain alike.
+Material atInertialNumber(const Material& mat, const Mat3f& C, const Vec3f& eps, int dim) {
+    Mat3f D = Mat3f::Zero();
+    D.topLeftCorner(dim, dim) =
+        0.5f * (C.topLeftCorner(dim, dim) + C.topLeftCorner(dim, dim).transpose());
+    const Mat3f deviator = D - (D.trace() / 3.f) * Mat3f::Identity();
+    const float shearRate = std::sqrt(2.f * deviator.squaredNorm());
+    float trEps = 0.f;
+    for (int a = 0; a < dim; ++a) trEps += eps[a];
+    Material rated = mat;
+    rated.frictionAngleDeg =
+        frictionAngleAt(mat, inertialNumber(mat, shearRate, -mat.lame.bulkModulus(3) * trEps));
+    return rated;
+}
+
 } // namespace
 
 double stableTimeStep(const World& world) {
@@ -177,7 +195,10 @@ void applyPlasticity(World& world, double stateTime) {
             Vec3f eps = Vec3f::Zero();
             for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
             if (mat.model != MaterialModel::Elastic) {
-                const ReturnMapResult rm = returnMap(mat, eps, ps.plastic[i]);
+                const ReturnMapResult rm =
+                    mat.rateDependent()
+                        ? returnMap(atInertialNumber(mat, ps.C[i], eps, dim), eps, ps.plastic[i])
+                        : returnMap(mat, eps, ps.plastic[i]);
                 ps.plastic[i] = rm.state;
                 markFractureTime(mat, stateTime, ps.plastic[i]);
                 if (rm.eps != eps) {
