@@ -20,14 +20,18 @@ namespace {
 
 constexpr float kPi = 3.14159265358979323846f;
 
-Material granular(int dim, double frictionDeg, double poisson = 0.3) {
+MaterialDesc granularDesc(double frictionDeg, double poisson = 0.3) {
     MaterialDesc desc;
     desc.model = MaterialModel::Granular;
     desc.density = 1500.0;
     desc.youngsModulus = 1.0e6;
     desc.poissonRatio = poisson;
     desc.frictionAngle = frictionDeg;
-    return Material::fromDesc(desc, dim);
+    return desc;
+}
+
+Material granular(int dim, double frictionDeg, double poisson = 0.3) {
+    return Material::fromDesc(granularDesc(frictionDeg, poisson), dim);
 }
 
 /// The in-plane (x, y) principal Kirchhoff stresses; in 2D the out-of-plane one is not stored.
@@ -230,10 +234,7 @@ TEST_CASE("Mohr-Coulomb: staysElastic never skips a state the return mapping wou
 
 TEST_CASE("mu(I): the friction angle runs from phi_s at rest to phi_2 at large inertial number",
           "[material][granular]") {
-    MaterialDesc desc;
-    desc.model = MaterialModel::Granular;
-    desc.density = 1500.0;
-    desc.frictionAngle = 22.0;
+    MaterialDesc desc = granularDesc(22.0);
     desc.dynamicFrictionAngle = 40.0;
     desc.grainDiameter = 0.002;
     desc.inertialNumberScale = 0.3;

@@ -108,6 +108,9 @@ TEST_CASE("Material::fromDesc copies every parameter", "[material]") {
     desc.softening = 0.1;
     desc.dynamicCriticalStateSlope = 1.4;
     desc.frictionAngle = 35.0;
+    desc.dynamicFrictionAngle = 50.0;
+    desc.grainDiameter = 0.004;
+    desc.inertialNumberScale = 0.5;
     const Material m = Material::fromDesc(desc, 2);
     CHECK(m.model == MaterialModel::WeakLayer);
     CHECK(m.dim == 2);
@@ -119,6 +122,10 @@ TEST_CASE("Material::fromDesc copies every parameter", "[material]") {
     CHECK(m.camClay.alpha == 0.1f);
     CHECK(m.camClay.Md == 1.4f);
     CHECK(m.frictionAngleDeg == 35.f);
+    CHECK(m.dynamicFrictionAngleDeg == 50.f);
+    CHECK(m.grainDiameter == 0.004f);
+    CHECK(m.inertialNumberScale == 0.5f);
+    CHECK_FALSE(m.rateDependent()); // mu(I) is the granular model's only
 }
 
 TEST_CASE("P-wave speed", "[material]") {
