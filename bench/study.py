@@ -292,7 +292,7 @@ def wave_speed(metrics):
 
 
 # V7: Lube et al. (2005) planar collapse, aspect ratio a = H0 / L0 = 1: a 0.1 m square of
-# cohesionless Mohr-Coulomb sand (phi 30 deg) against a slip wall at x = 0 on a sticky floor,
+# cohesionless Mohr-Coulomb sand (mu(I), below) against a slip wall at x = 0 on a sticky floor,
 # as in README's first look. Law: (L_inf - L0) / L0 = 1.2 a for a < 1.8. L_inf is the 99th
 # percentile of the deposit's mass along x, from the last frame's density volume (nodal mass
 # spread by the B-spline, so a fraction of a cell farther out than the particles).
@@ -313,6 +313,14 @@ COLUMN_LAW = column_law(COLUMN_ASPECT)
 # a = 4 deposit is at rest from 0.9 s, and 0.6 s would stop it at 92 % of its runout).
 SLICE_ASPECTS = (0.5, 1.0, 2.0, 4.0)
 SLICE_ASPECT_DX = 0.005
+
+
+# The column's friction: mu(I) fitted to Lube's law at dx 0.005 (README, Validation: V7), from
+# 15 degrees at rest to 55 at large inertial number, grains of 1 cm. With a constant friction
+# angle (30 degrees until 2026-12-03) the runout grew with every halving of dx.
+COLUMN_FRICTION = """friction_angle = 15.0
+dynamic_friction_angle = 55.0
+grain_diameter = 0.01"""
 
 
 def column_end_time(aspect):
@@ -342,7 +350,7 @@ model = "granular"
 density = 1500.0
 youngs_modulus = 1.0e6
 poisson_ratio = 0.3
-friction_angle = 30.0
+{COLUMN_FRICTION}
 """
     for point, normal, bc in walls:
         text += (f'[[terrain]]\nshape = "plane"\npoint = {v(*point)}\nnormal = {v(*normal)}\n'
