@@ -162,11 +162,11 @@ class Run:
         Of the snow that moved, from summary.json (release_top_x/y, runout_x/y, since
         2026-12-03), so that a base or a slope that never moved is neither; for older runs, of
         every particle, from the report's first and last particle frames (report.json)."""
-        keys = (("release_top_x", "release_top_y", "runout_x", "runout_y")
-                if "runout_y" in self.summary else
-                ("release_top_x", "release_top_y", "deposit_far_x", "deposit_far_y"))
-        source = self.summary if "runout_y" in self.summary else self.info
-        ends = [source.get(k) for k in keys]
+        if "runout_y" in self.summary:
+            source, far = self.summary, ("runout_x", "runout_y")
+        else:
+            source, far = self.info, ("deposit_far_x", "deposit_far_y")
+        ends = [source.get(k) for k in ("release_top_x", "release_top_y") + far]
         return None if any(v is None for v in ends) else ((ends[0], ends[1]), (ends[2], ends[3]))
 
     def fall_height(self):
