@@ -58,6 +58,9 @@ constexpr std::uint32_t kFlagMoved = 64u;
 constexpr std::uint32_t kFlagOutside = 128u;
 /// Weak-layer particle whose eta exceeded 0 (part of the anticrack; fractureTime says when).
 constexpr std::uint32_t kFlagCracked = 256u;
+/// Of a body above the slip surface (BodyDesc::slidesOn): scatters to and reads from the upper
+/// velocity field (firn/slip_contact.h).
+constexpr std::uint32_t kFlagUpperField = 512u;
 constexpr float kMovedSpeed = 0.1f; ///< m/s, outputs.md's threshold for moving snow (front_x)
 
 /// Cohesive Cam-Clay parameters (Gaume et al. 2019 eqs. 1-5).

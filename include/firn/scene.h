@@ -165,6 +165,12 @@ struct BodyDesc {
     /// polygon: the local frame's origin, subtracted from the file's coordinates as it is read;
     /// set by toLocalFrame (firn/gis.h), not a scene key.
     Vec3d footprintOrigin = {0.0, 0.0, 0.0};
+    /// The name of an earlier weak-layer body this body lies above, across a slip surface
+    /// (firn/slip_contact.h): its particles get the upper velocity field. Empty: one field.
+    std::string slidesOn;
+    /// Coulomb friction of the slip surface once the layer has collapsed; < 0: the layer's
+    /// critical-state friction M_d / sqrt(3) (slipFrictionOfWeakLayer).
+    double slipFriction = -1.0;
     SourceLoc loc;
 };
 

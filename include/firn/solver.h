@@ -37,6 +37,10 @@ struct World {
     bool sleep = true;        ///< see GridDesc::sleep
     float sleepSpeed = 0.02f; ///< m/s
     int sleepSteps = 100;
+    /// The slip surface (firn/slip_contact.h): the material of the weak layer whose collapse
+    /// releases it, or -1 for one velocity field; its Coulomb friction after the collapse.
+    int slipMaterial = -1;
+    float slipFriction = 0.f;
 
     std::vector<Material> materials;
     std::vector<std::size_t> particlesPerBody; ///< seeded particles of each scene body

@@ -24,6 +24,24 @@ struct TransferParams {
     float dt = 1e-3f;
     Transfer transfer = Transfer::Apic;
     float flipBlend = 0.95f;
+    /// With a slip surface (World::slipMaterial >= 0) particles flagged kFlagUpperField scatter
+    /// to and read from the upper field; particles of this material tell whether the layer under
+    /// a node still bonds the fields. -1: one field.
+    int slipMaterial = -1;
+};
+
+/// Per node channels of Grid::aux: the FLIP reference velocity of the (lower) field, and with a
+/// slip surface the upper field's mass, momentum (velocity after the update), FLIP reference and
+/// bond (1 where the weak layer's mass at the node is mostly uncollapsed, else 0).
+struct AuxLayout {
+    bool flip = false;
+    bool twoFields = false;
+    int lowerReference() const { return 0; }
+    int upperMass() const { return flip ? 3 : 0; }
+    int upperVelocity() const { return upperMass() + 1; }
+    int upperReference() const { return upperVelocity() + 3; }
+    int bond() const { return upperVelocity() + (flip ? 6 : 3); }
+    int channels() const { return twoFields ? bond() + 1 : (flip ? 3 : 0); }
 };
 
 /// Reusable per-leaf padded blocks of the scatter phase.
@@ -33,6 +51,8 @@ struct TransferScratch {
 
 /// P2G: grid mass, momentum plus stress impulse (APIC, PIC) in Grid::velocity; for FLIP the
 /// stress impulse goes to Grid::aux (3 channels) so that the transferred velocity stays apart.
+/// With a slip surface the lower field goes there and the upper field to Grid::aux (AuxLayout);
+/// the grid must be rebuilt with AuxLayout::channels().
 void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
                      TransferScratch& scratch);
 

@@ -107,6 +107,8 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float
     }
     mGhosts.resize(kept);
 
+    // The FLIP impulse (the lower field's, with a slip surface) is channel 0 of the aux channels.
+    const int auxStride = grid.auxChannels();
     // The fold (serial: targets are shared between ghosts; ghosts are never targets, so every
     // ghost's own values are read unchanged). Row-sum lumping of T^T M T gives the mirror node
     // w s m_g of mass (s = sum of the ghost's weights); T^T gives it -w of the ghost's momentum
@@ -119,14 +121,14 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float
         const std::size_t gb = std::size_t(g.at.block);
         const float mg = grid.mass(gb)[g.at.node];
         const float* momG = grid.velocity(gb) + 3 * g.at.node;
-        const float* impG = flip ? grid.aux(gb) + 3 * g.at.node : nullptr;
+        const float* impG = flip ? grid.aux(gb) + auxStride * g.at.node : nullptr;
         for (int t = 0; t < g.count; ++t) {
             const float w = g.weights[t];
             const std::size_t tb = std::size_t(g.targets[t].block);
             const int tn = g.targets[t].node;
             grid.mass(tb)[tn] += w * s * mg;
             float* mom = grid.velocity(tb) + 3 * tn;
-            float* force = flip ? grid.aux(tb) + 3 * tn : mom;
+            float* force = flip ? grid.aux(tb) + auxStride * tn : mom;
             for (int c = 0; c < 3; ++c) {
                 mom[c] -= w * momG[c];
                 if (flip) force[c] -= w * impG[c];
@@ -137,6 +139,7 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float
 }
 
 void StickyWalls::mirror(Grid& grid, bool flip) const {
+    const int auxStride = grid.auxChannels();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mGhosts.size(), 256), [&](const auto& r) {
         for (std::size_t q = r.begin(); q != r.end(); ++q) {
             const Ghost& g = mGhosts[q];
@@ -147,7 +150,7 @@ void StickyWalls::mirror(Grid& grid, bool flip) const {
                 const float* vt = grid.velocity(tb) + 3 * tn;
                 v -= g.weights[t] * Vec3f(vt[0], vt[1], vt[2]);
                 if (flip) {
-                    const float* at = grid.aux(tb) + 3 * tn;
+                    const float* at = grid.aux(tb) + auxStride * tn;
                     reference -= g.weights[t] * Vec3f(at[0], at[1], at[2]);
                 }
             }
@@ -155,7 +158,7 @@ void StickyWalls::mirror(Grid& grid, bool flip) const {
             float* out = grid.velocity(gb) + 3 * g.at.node;
             for (int c = 0; c < 3; ++c) out[c] = v[c];
             if (flip) {
-                float* ref = grid.aux(gb) + 3 * g.at.node;
+                float* ref = grid.aux(gb) + auxStride * g.at.node;
                 for (int c = 0; c < 3; ++c) ref[c] = reference[c];
             }
         }

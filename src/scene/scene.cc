@@ -493,6 +493,41 @@ void readPolygon(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& ea
     readThicknessNoise(r, body);
 }
 
+// slides_on: the body lies above a slip surface on an earlier weak-layer body (one per scene);
+// slip_friction: that surface's friction once the layer has collapsed.
+void readSlipSurface(TableReader& r, BodyDesc& body, const std::vector<MaterialDesc>& materials,
+                     const std::vector<BodyDesc>& earlier) {
+    if (!r.string("slides_on", body.slidesOn)) {
+        if (r.has("slip_friction")) r.failAt("slip_friction", "needs slides_on");
+        return;
+    }
+    auto isWeakLayer = [&](const BodyDesc& b) {
+        return !b.name.empty() &&
+               materials[std::size_t(b.materialIndex)].model == MaterialModel::WeakLayer;
+    };
+    std::string weakBodies;
+    if (indexOfName(earlier, body.slidesOn, isWeakLayer, weakBodies) < 0) {
+        r.failReference("slides_on", "slides_on " + inQuotes(body.slidesOn) +
+                                         " is not an earlier body of a weak_layer material "
+                                         "(such bodies: " +
+                                         namesOrNone(weakBodies) + ")");
+    }
+    r.real("slip_friction", body.slipFriction, Range::nonNegative());
+    for (const BodyDesc& other : earlier) {
+        if (other.slidesOn.empty()) continue;
+        if (other.slidesOn != body.slidesOn) {
+            r.failAt("slides_on", "a scene has one slip surface: body " + inQuotes(other.name) +
+                                      " slides on " + inQuotes(other.slidesOn));
+        }
+        if (other.slipFriction >= 0.0 && body.slipFriction >= 0.0 &&
+            other.slipFriction != body.slipFriction) {
+            r.failAt("slip_friction", "differs from body " + inQuotes(other.name) + "'s " +
+                                          formatNumber(other.slipFriction) +
+                                          ": a scene has one slip surface");
+        }
+    }
+}
+
 int resolveMaterial(TableReader& r, const std::string& name,
                     const std::vector<MaterialDesc>& materials) {
     std::string names;
@@ -521,6 +556,7 @@ BodyDesc readBody(TableReader& r, const std::vector<MaterialDesc>& materials,
     if (body.shape == BodyShape::Sphere) readSphere(r, body);
     if (body.shape == BodyShape::Layer) readLayer(r, body, earlier);
     if (body.shape == BodyShape::Polygon) readPolygon(r, body, earlier);
+    readSlipSurface(r, body, materials, earlier);
     rejectOtherShapeKeys(r, body.shape, kBodyShapeKeys, kBodyShapes);
     r.finish();
     return body;

@@ -1,5 +1,6 @@
 // Scene -> world: materials, colliders and particle seeding from bodies.
 #include <firn/gis.h>
+#include <firn/slip_contact.h>
 #include <firn/solver.h>
 
 #include <algorithm>
@@ -427,8 +428,29 @@ void seedBodies(const SceneDesc& scene, World& world) {
     });
     checkEveryBodySeeded(scene, world, bodyOf);
     const std::vector<bool> resting = restingBodies(scene, world, bodyOf);
-    for (std::size_t i = 0; i < bodyOf.size(); ++i)
+    for (std::size_t i = 0; i < bodyOf.size(); ++i) {
+        const BodyDesc& body = scene.bodies[bodyOf[i]];
         if (!resting[bodyOf[i]]) world.particles.plastic[i].flags |= kFlagOutsideSettling;
+        if (!body.slidesOn.empty()) world.particles.plastic[i].flags |= kFlagUpperField;
+    }
+}
+
+/// The scene's slip surface, if a body slides on a weak layer (BodyDesc::slidesOn; the scene
+/// reader allows one surface, and one friction where several bodies give it).
+void setSlipSurface(const SceneDesc& scene, World& world) {
+    double friction = -1.0;
+    for (const BodyDesc& body : scene.bodies) {
+        if (body.slidesOn.empty()) continue;
+        const auto weak = std::find_if(scene.bodies.begin(), scene.bodies.end(),
+                                       [&](const BodyDesc& b) { return b.name == body.slidesOn; });
+        world.slipMaterial = weak->materialIndex;
+        friction = std::max(friction, body.slipFriction);
+    }
+    if (world.slipMaterial < 0) return;
+    world.slipFriction =
+        friction >= 0.0
+            ? float(friction)
+            : slipFrictionOfWeakLayer(world.materials[std::size_t(world.slipMaterial)].camClay.Md);
 }
 
 } // namespace
@@ -498,6 +520,8 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
         w.materials.push_back(Material::fromDesc(m, w.dim));
     markSlabMaterials(scene, w.materials);
     for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));
+
+    setSlipSurface(scene, w);
 
     w.particles.dim = w.dim;
     w.particles.dx = w.dx;

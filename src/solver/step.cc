@@ -1,4 +1,5 @@
 #include <firn/hencky.h>
+#include <firn/slip_contact.h>
 #include <firn/solver.h>
 #include <firn/svd.h>
 
@@ -8,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 namespace firn {
@@ -93,48 +95,98 @@ double stableTimeStep(const World& world) {
     return std::min(double(world.maxDt), double(world.cfl) * world.dx / speed);
 }
 
+namespace {
+
+/// The slip surface's normal at a node: the nearest terrain's (layers lie parallel to it), or
+/// against gravity without terrain.
+Vec3f slipNormal(const World& world, const Vec3f& xn) {
+    const Collider* nearest = nullptr;
+    float distance = std::numeric_limits<float>::infinity();
+    for (const Collider& c : world.colliders) {
+        const float d = c.signedDistance(xn);
+        if (d < distance) distance = d, nearest = &c;
+    }
+    if (nearest) return nearest->normal(xn);
+    const float g = world.gravity.norm();
+    return g > 0.f ? Vec3f(-world.gravity / g) : Vec3f(0.f, 1.f, 0.f);
+}
+
+} // namespace
+
 void updateGridVelocity(World& world, float dt) {
     Grid& grid = world.grid;
     const bool flip = world.transfer == Transfer::Flip;
+    const AuxLayout layout{flip, world.slipMaterial >= 0};
+    const int stride = layout.channels();
     const int nk = world.dim == 3 ? kLeafDim : 1;
     const float ramp =
         world.gravityRamp > 0.f ? std::min(1.f, float(world.time) / world.gravityRamp) : 1.f;
     const Vec3f dv = (dt * ramp) * world.gravity;
     world.stickyWalls.fold(world.colliders, grid, world.dx, world.dim, flip, dv);
     const StickyWalls& walls = world.stickyWalls;
+    const float tolerance = kContactTolerance * world.dx;
+    // v = p / m (+ FLIP: the stress impulse / m, the velocity before forces kept as the
+    // reference in its place) + dt g.
+    auto withForces = [&](float m, const float* momentum, float* impulseInReferenceOut) {
+        const float invM = 1.f / m;
+        Vec3f vn(momentum[0] * invM, momentum[1] * invM, momentum[2] * invM);
+        if (flip) {
+            float* aux = impulseInReferenceOut;
+            const Vec3f impulse(aux[0], aux[1], aux[2]);
+            for (int c = 0; c < 3; ++c) aux[c] = vn[c];
+            vn += invM * impulse;
+        }
+        return Vec3f(vn + dv);
+    };
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
             const float* mass = grid.mass(b);
             float* vel = grid.velocity(b);
-            float* aux = flip ? grid.aux(b) : nullptr;
+            float* aux = stride > 0 ? grid.aux(b) : nullptr;
             const LeafKey& key = grid.blockKey(b);
             for (int i = 0; i < kLeafDim; ++i)
                 for (int j = 0; j < kLeafDim; ++j)
                     for (int k = 0; k < nk; ++k) {
                         const int n = (i << 6) | (j << 3) | k;
                         float* v = vel + 3 * n;
-                        if (mass[n] <= 0.f) {
-                            v[0] = v[1] = v[2] = 0.f;
-                            continue;
-                        }
-                        if (walls.isGhost(b, n)) continue; // mirrored below
-                        const float invM = 1.f / mass[n];
-                        Vec3f vn(v[0] * invM, v[1] * invM, v[2] * invM);
-                        if (flip) {
-                            // aux: stress impulse in, velocity before forces out (FLIP reference)
-                            const Vec3f impulse(aux[3 * n], aux[3 * n + 1], aux[3 * n + 2]);
-                            for (int c = 0; c < 3; ++c) aux[3 * n + c] = vn[c];
-                            vn += invM * impulse;
-                        }
-                        vn += dv;
+                        float* x = aux ? aux + stride * n : nullptr;
+                        const float mUpper = layout.twoFields ? x[layout.upperMass()] : 0.f;
+                        float* vUpperOut = layout.twoFields ? x + layout.upperVelocity() : nullptr;
+                        if (mass[n] <= 0.f) v[0] = v[1] = v[2] = 0.f;
+                        if (mUpper <= 0.f && vUpperOut)
+                            vUpperOut[0] = vUpperOut[1] = vUpperOut[2] = 0.f;
+                        const bool ghost = mass[n] > 0.f && walls.isGhost(b, n); // mirrored below
+                        const bool lower = mass[n] > 0.f && !ghost;
+                        const bool upper = mUpper > 0.f;
+                        if (!lower && !upper) continue;
+                        Vec3f vn = lower ? withForces(mass[n], v, x) : Vec3f(Vec3f::Zero());
+                        Vec3f vUpper =
+                            upper ? withForces(mUpper, vUpperOut, x + layout.upperReference())
+                                  : Vec3f(Vec3f::Zero());
                         const Vec3f xn = nodePosition(key, i, j, k, world.dx, world.dim);
-                        // Sticky colliders were evaluated by the fold: their held nodes stop.
-                        if (walls.isHeld(b, n)) vn = Vec3f::Zero();
-                        for (const Collider& c : world.colliders)
-                            if (!c.mirrorsInside() &&
-                                c.signedDistance(xn) <= kContactTolerance * world.dx)
-                                vn = c.applyBoundary(vn, c.normal(xn));
-                        v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
+                        if (lower && upper) {
+                            const FieldVelocities both = resolveSlipContact(
+                                mass[n], vn, mUpper, vUpper, slipNormal(world, xn),
+                                world.slipFriction, x[layout.bond()] > 0.5f);
+                            vn = both.lower, vUpper = both.upper;
+                        }
+                        if (lower) {
+                            // Sticky colliders were evaluated by the fold: their held nodes stop.
+                            if (walls.isHeld(b, n)) vn = Vec3f::Zero();
+                            for (const Collider& c : world.colliders)
+                                if (!c.mirrorsInside() && c.signedDistance(xn) <= tolerance)
+                                    vn = c.applyBoundary(vn, c.normal(xn));
+                            v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
+                        }
+                        if (upper) {
+                            // The upper field has no mirror: inside or on a sticky collider (and
+                            // at the lower field's ghosts) it stops, as a zeroed node.
+                            if (ghost) vUpper = Vec3f::Zero();
+                            for (const Collider& c : world.colliders)
+                                if (c.signedDistance(xn) <= tolerance)
+                                    vUpper = c.applyBoundary(vUpper, c.normal(xn));
+                            for (int c = 0; c < 3; ++c) vUpperOut[c] = vUpper[c];
+                        }
                     }
         }
     });
@@ -225,10 +277,13 @@ void step(World& world, double dt, StepTimings* timings) {
     const float flipBlend = world.flipRelaxationTime > 0.f
                                 ? std::exp(-dtf / world.flipRelaxationTime)
                                 : world.flipBlend;
-    const TransferParams params{world.dim, world.dx, dtf, world.transfer, flipBlend};
+    const TransferParams params{world.dim,      world.dx,  dtf,
+                                world.transfer, flipBlend, world.slipMaterial};
     {
         StageClock clock(timings ? &timings->p2g : nullptr);
-        world.grid.rebuild(world.particles, world.transfer == Transfer::Flip ? 3 : 0);
+        world.grid.rebuild(
+            world.particles,
+            AuxLayout{world.transfer == Transfer::Flip, world.slipMaterial >= 0}.channels());
         particlesToGrid(world.particles, world.grid, params, world.scratch);
     }
     {

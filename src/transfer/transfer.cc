@@ -121,9 +121,12 @@ inline void gatherParticle(const Stencil& s, const float* local, int channels, V
 
 /// Scatter phase. ParticleFn(i, float value[NC], Mat3f& affine) fills the constant part of the
 /// particle's contribution and, if Affine, a matrix (per metre) whose product with the node
-/// offset is added to channels AffineAt .. AffineAt + 2. With skipDeepSleepers, leaves in deep
-/// sleep (ParticleSet::SleepLevel) scatter nothing: no awake particle reads those nodes.
-template <int Dim, int NC, bool Affine, int AffineAt, typename ParticleFn>
+/// offset is added to channels AffineAt .. AffineAt + 2; it returns true where the affine part
+/// goes to channels AffineAtUpper .. + 2 instead (the upper field of a slip surface). With
+/// skipDeepSleepers, leaves in deep sleep (ParticleSet::SleepLevel) scatter nothing: no awake
+/// particle reads those nodes.
+template <int Dim, int NC, bool Affine, int AffineAt, int AffineAtUpper = AffineAt,
+          typename ParticleFn>
 void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipDeepSleepers,
                    ParticleFn&& fn) {
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
@@ -137,7 +140,14 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipD
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                 float value[NC];
                 Mat3f affine = Mat3f::Zero();
-                fn(i, value, affine);
+                const bool upper = fn(i, value, affine);
+                if constexpr (AffineAtUpper != AffineAt) {
+                    if (upper) {
+                        scatterParticle<Dim, NC, Affine, AffineAtUpper>(s, value, affine * ps.dx,
+                                                                        buf);
+                        continue;
+                    }
+                }
                 scatterParticle<Dim, NC, Affine, AffineAt>(s, value, affine * ps.dx, buf);
             }
         }
@@ -182,11 +192,12 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
     });
 }
 
-/// Copies `channels` floats per node of the 2^Dim blocks around particle leaf l into a padded
-/// local array (10^Dim nodes), so that G2P reads without per-node block lookups.
+/// Copies 3 floats per node (from channel `channelOffset` of `sourceChannels` per node) of the
+/// 2^Dim blocks around particle leaf l into a padded local array (10^Dim nodes of `channels`
+/// floats), so that G2P reads without per-node block lookups.
 template <int Dim>
 void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const Grid&, std::size_t),
-                  int channels, int channelOffset, float* out) {
+                  int sourceChannels, int channelOffset, int channels, float* out) {
     const auto& blocks = grid.blocksOfParticleLeaf()[l];
     for (int o = 0; o < (1 << Dim); ++o) {
         const float* src = field(grid, std::size_t(blocks[o]));
@@ -194,7 +205,7 @@ void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const G
         for (int i = 0; i < overlapEnd(o, 0); ++i)
             for (int j = 0; j < overlapEnd(o, 1); ++j)
                 for (int k = 0; k < kEnd; ++k) {
-                    const float* s = src + 3 * leafOffset(i, j, k) + channelOffset;
+                    const float* s = src + sourceChannels * leafOffset(i, j, k) + channelOffset;
                     float* d = out + channels * paddedIndex<Dim>(i + overlapShift(o, 0),
                                                                  j + overlapShift(o, 1),
                                                                  k + overlapShift(o, 2));
@@ -216,9 +227,65 @@ Mat3f toMatrix(const Sym3f& t) {
     return m;
 }
 
+/// P2G with a slip surface: each field gets its own mass, momentum and (FLIP) stress impulse, the
+/// lower field in Grid::mass / velocity / aux as with one field, the upper one in Grid::aux
+/// (AuxLayout), with the bond of every node from the weak layer's collapsed share of its mass.
+template <int Dim, bool Flip>
+void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& params,
+                  TransferScratch& scratch) {
+    constexpr int perField = Flip ? 7 : 4; // mass, momentum, (stress impulse)
+    constexpr int affineAt = Flip ? 4 : 1; // the stress impulse (with APIC's C on momentum)
+    constexpr int weakAt = 2 * perField;   // the weak layer's mass, and its uncollapsed mass
+    constexpr int NC = weakAt + 2;
+    const float dInv = apicInverseD(1.f / params.dx);
+    const bool apic = params.transfer == Transfer::Apic;
+    scatterLeaves<Dim, NC, true, affineAt, perField + affineAt>(
+        ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
+            const std::uint32_t flags = ps.plastic[i].flags;
+            const bool upper = flags & kFlagUpperField;
+            for (int ch = 0; ch < NC; ++ch) value[ch] = 0.f;
+            const float m = ps.mass[i];
+            float* field = value + (upper ? perField : 0);
+            field[0] = m, field[1] = m * ps.v[i][0], field[2] = m * ps.v[i][1];
+            field[3] = m * ps.v[i][2];
+            if (ps.material[i] == params.slipMaterial) {
+                value[weakAt] = m;
+                value[weakAt + 1] = (flags & kFlagCollapsed) ? 0.f : m;
+            }
+            affine = Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.stress(i)));
+            if (!Flip && apic && !ps.asleep(i)) affine += m * ps.C[i];
+            return upper;
+        });
+    const AuxLayout layout{Flip, true};
+    const int stride = layout.channels();
+    mergeBlocks<Dim, NC>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+        float* mass = grid.mass(b);
+        float* mom = grid.velocity(b);
+        float* aux = grid.aux(b);
+        for (int n = 0; n < kLeafNodes; ++n) {
+            const float* a = acc + NC * n;
+            float* x = aux + stride * n;
+            mass[n] = a[0];
+            for (int c = 0; c < 3; ++c) {
+                mom[3 * n + c] = a[1 + c];
+                if (Flip) x[layout.lowerReference() + c] = a[4 + c];
+                x[layout.upperVelocity() + c] = a[perField + 1 + c];
+                if (Flip) x[layout.upperReference() + c] = a[perField + 4 + c];
+            }
+            x[layout.upperMass()] = a[perField];
+            x[layout.bond()] = a[weakAt + 1] > 0.5f * a[weakAt] ? 1.f : 0.f;
+        }
+    });
+}
+
 template <int Dim>
 void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
          TransferScratch& scratch) {
+    if (params.slipMaterial >= 0) {
+        if (params.transfer == Transfer::Flip)
+            return p2gTwoFields<Dim, true>(ps, grid, params, scratch);
+        return p2gTwoFields<Dim, false>(ps, grid, params, scratch);
+    }
     const float dInv = apicInverseD(1.f / params.dx);
     const bool apic = params.transfer == Transfer::Apic;
     // MLS force: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al. 2018, eq. 18).
@@ -233,6 +300,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
                 value[3] = m * ps.v[i][2];
                 affine = stressImpulse(i);
                 if (apic && !ps.asleep(i)) affine += m * ps.C[i];
+                return false;
             });
         mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
             float* mass = grid.mass(b);
@@ -252,6 +320,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
             value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
             value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
             affine = stressImpulse(i);
+            return false;
         });
     mergeBlocks<Dim, 7>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
         float* mass = grid.mass(b);
@@ -267,8 +336,8 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     });
 }
 
-/// Mass-weighted mean velocity of the nodes of grid block b.
-inline Vec3f meanBlockVelocity(const Grid& grid, std::int32_t b) {
+/// Mass-weighted mean velocity of the nodes of grid block b (both fields of a slip surface).
+inline Vec3f meanBlockVelocity(const Grid& grid, std::int32_t b, const AuxLayout& layout) {
     const float* mass = grid.mass(std::size_t(b));
     const float* vel = grid.velocity(std::size_t(b));
     Vec3f momentum = Vec3f::Zero();
@@ -278,6 +347,18 @@ inline Vec3f meanBlockVelocity(const Grid& grid, std::int32_t b) {
         momentum += mass[n] * Vec3f(vel[3 * n], vel[3 * n + 1], vel[3 * n + 2]);
         total += mass[n];
     }
+    if (layout.twoFields) {
+        const float* aux = grid.aux(std::size_t(b));
+        const int stride = layout.channels();
+        for (int n = 0; n < kLeafNodes; ++n) {
+            const float* x = aux + stride * n;
+            const float m = x[layout.upperMass()];
+            if (m <= 0.f) continue;
+            const float* v = x + layout.upperVelocity();
+            momentum += m * Vec3f(v[0], v[1], v[2]);
+            total += m;
+        }
+    }
     return total > 0.f ? Vec3f(momentum / total) : Vec3f(Vec3f::Zero());
 }
 
@@ -286,28 +367,43 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const float invDx = 1.f / ps.dx;
     const float cScale = apicInverseD(invDx) * ps.dx; // C = 4/dx^2 B with offsets in grid units
     const float dt = params.dt, flip = params.flipBlend;
+    const AuxLayout layout{Flip, params.slipMaterial >= 0};
+    const int auxStride = layout.channels();
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), 0.f,
         [&](const auto& r, float maxSpeed) {
             constexpr int channels = Flip ? 6 : 3;
             float local[paddedNodes<Dim>() * channels];
+            float upperLocal[paddedNodes<Dim>() * channels]; // the upper field's, if any
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
                 const auto sleep = ps.leafSleepLevel(l);
                 if (sleep != ParticleSet::kAwake) { // at rest, state frozen
                     // Next to awake snow it watches for a push; deeper in, its block's nodes
                     // lack the scatter of deep leaves (P2G), and nothing is read.
                     if (sleep == ParticleSet::kAsleep)
-                        ps.leafPush[l] = meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0]);
+                        ps.leafPush[l] =
+                            meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0], layout);
                     continue;
                 }
-                gatherPadded<Dim>(grid, l, velocityField, channels, 0, local);
-                if (Flip) gatherPadded<Dim>(grid, l, auxField, channels, 0, local + 3);
+                gatherPadded<Dim>(grid, l, velocityField, 3, 0, channels, local);
+                if (Flip)
+                    gatherPadded<Dim>(grid, l, auxField, auxStride, layout.lowerReference(),
+                                      channels, local + 3);
+                if (layout.twoFields) {
+                    gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperVelocity(),
+                                      channels, upperLocal);
+                    if (Flip)
+                        gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperReference(),
+                                          channels, upperLocal + 3);
+                }
                 for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                     if (ps.asleep(i)) continue;
                     const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                     Vec3f vPic, dvFlip;
                     Mat3f B;
-                    gatherParticle<Dim, Flip>(s, local, channels, vPic, B, dvFlip);
+                    const bool upper = layout.twoFields && (ps.plastic[i].flags & kFlagUpperField);
+                    gatherParticle<Dim, Flip>(s, upper ? upperLocal : local, channels, vPic, B,
+                                              dvFlip);
                     const Mat3f C = cScale * B;
                     ps.C[i] = C;
                     ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic) : vPic;
@@ -338,6 +434,7 @@ VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& 
             value[3] = m * ps.v[i][2];
             value[4] = (ps.plastic[i].flags & kFlagFailed) ? m : 0.f;
             value[5] = m * ps.plastic[i].eta;
+            return false;
         });
     VolumeFrame vf;
     vf.voxelSize = ps.dx;
