@@ -833,3 +833,24 @@ max = [0.5, 0.5]
     CHECK(metrics.back() == '\n');
     CHECK(temporaryFiles(out).empty());
 }
+
+TEST_CASE("firn check names the slip surface, its bodies and its friction", "[cli][slip]") {
+    TempDir dir("firn-cli-check-slip");
+    const std::string scene = std::string(FIRN_SOURCE_DIR) + "/bench/slab_drag.toml";
+    const Outcome plain = runFirn({"check", scene}, dir);
+    CHECK(plain.code == 0);
+    CHECK(plain.out.find("slip surface") == std::string::npos);
+    const Outcome slip = runFirn({"check", scene, "--set", "body.slab.slides_on=\"weak\"", "--set",
+                                  "body.block.slides_on=\"weak\""},
+                                 dir);
+    INFO(slip.out << slip.err);
+    CHECK(slip.code == 0);
+    // M_d 1.2 from the parameter table: 1.2 / sqrt(3) = 0.6928.
+    CHECK(slip.out.find("  slip surface on weak layer \"weak\", bodies above: \"slab\", \"block\"; "
+                        "friction 0.693 (default: M_d / sqrt(3) of the layer)\n") !=
+          std::string::npos);
+    const Outcome given = runFirn({"check", scene, "--set", "body.slab.slides_on=\"weak\"", "--set",
+                                   "body.slab.slip_friction=0.4"},
+                                  dir);
+    CHECK(given.out.find("bodies above: \"slab\"; friction 0.4 (scene)\n") != std::string::npos);
+}

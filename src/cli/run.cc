@@ -670,6 +670,19 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
             << (cut.saw == Saw::QuasiStatic ? "quasi-static saw (cut before settling)"
                                             : "instant saw (removed at t = 0)")
             << "\n";
+    if (world->slipMaterial >= 0) {
+        std::string above, weak;
+        bool frictionGiven = false;
+        for (const BodyDesc& body : scene.bodies) {
+            if (body.slidesOn.empty()) continue;
+            above += (above.empty() ? "\"" : ", \"") + body.name + "\"";
+            weak = body.slidesOn;
+            frictionGiven = frictionGiven || body.slipFriction >= 0.0;
+        }
+        out << "  slip surface on weak layer \"" << weak << "\", bodies above: " << above
+            << "; friction " << formatNumber(std::round(world->slipFriction * 1000.0) / 1000.0)
+            << (frictionGiven ? " (scene)" : " (default: M_d / sqrt(3) of the layer)") << "\n";
+    }
     out << "  output: " << scene.output.directory << "\n";
     return out.str();
 }
