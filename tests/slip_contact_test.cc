@@ -72,13 +72,7 @@ double blockAcceleration(World& world) {
         t.push_back(world.time);
         s.push_back(blockX(world) - x0);
     }
-    Eigen::MatrixXd A(t.size(), 3);
-    Eigen::VectorXd b(t.size());
-    for (std::size_t i = 0; i < t.size(); ++i) {
-        A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i];
-        b[i] = s[i];
-    }
-    return A.colPivHouseholderQr().solve(b)[2];
+    return test::fitAcceleration(t, s);
 }
 
 std::string errorOf(const std::string& text) {

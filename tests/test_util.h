@@ -4,10 +4,13 @@
 #include <firn/scene.h>
 #include <firn/solver.h>
 
+#include <Eigen/Dense>
+
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 namespace firn::test {
 
@@ -48,6 +51,17 @@ inline SceneDesc sceneFromText(const std::string& text, const std::string& name 
 inline void advanceTo(World& world, double endTime) {
     while (world.time < endTime - 1e-12)
         step(world, std::min(stableTimeStep(world), endTime - world.time));
+}
+
+/// Least-squares fit s(t) = s0 + v0 t + a/2 t^2 of a path sampled at times t; returns a.
+inline double fitAcceleration(const std::vector<double>& t, const std::vector<double>& s) {
+    Eigen::MatrixXd A(t.size(), 3);
+    Eigen::VectorXd b(t.size());
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i];
+        b[i] = s[i];
+    }
+    return A.colPivHouseholderQr().solve(b)[2];
 }
 
 /// A fresh empty folder under the system temp dir, removed when the object dies.

@@ -20,17 +20,6 @@ namespace {
 constexpr double kG = 9.81;
 constexpr double kPi = 3.14159265358979323846;
 
-/// Least-squares fit s(t) = s0 + v0 t + a/2 t^2; returns a.
-double fitAcceleration(const std::vector<double>& t, const std::vector<double>& s) {
-    Eigen::MatrixXd A(t.size(), 3);
-    Eigen::VectorXd b(t.size());
-    for (std::size_t i = 0; i < t.size(); ++i) {
-        A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i];
-        b[i] = s[i];
-    }
-    return A.colPivHouseholderQr().solve(b)[2];
-}
-
 /// A 1 m x 0.2 m layer of granular material (phi, E 10 MPa, rho 1500) on a flat floor with
 /// Coulomb friction tan(delta), gravity tilted by theta and ramped over 0.1 s so the layer settles
 /// without bouncing (as V1). 2D: the plane-strain section of a long mass.
@@ -72,7 +61,7 @@ TEST_CASE("A granular mass slides with a = g (sin th - tan delta cos th) at two 
             }
             const double th = c.thetaDeg * kPi / 180, delta = c.deltaDeg * kPi / 180;
             const double expected = kG * (std::sin(th) - std::tan(delta) * std::cos(th));
-            const double a = fitAcceleration(t, s);
+            const double a = test::fitAcceleration(t, s);
             INFO("theta " << c.thetaDeg << " delta " << c.deltaDeg << " phi " << c.phiDeg << " dx "
                           << dx << ": a = " << a << ", expected " << expected);
             // The issue's 2 %: V1's law for the mass as a whole.

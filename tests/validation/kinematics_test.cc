@@ -22,17 +22,6 @@ std::string elasticMaterial(double E, double nu, double rho) {
            "\n";
 }
 
-/// Least-squares fit s(t) = s0 + v0 t + a/2 t^2; returns a.
-double fitAcceleration(const std::vector<double>& t, const std::vector<double>& s) {
-    Eigen::MatrixXd A(t.size(), 3);
-    Eigen::VectorXd b(t.size());
-    for (std::size_t i = 0; i < t.size(); ++i) {
-        A.row(i) << 1.0, t[i], 0.5 * t[i] * t[i];
-        b[i] = s[i];
-    }
-    return A.colPivHouseholderQr().solve(b)[2];
-}
-
 /// Distance travelled along the slope direction (cos th, -sin th) by the centre of mass,
 /// sampled every 0.05 s over [0.2, 1] s, then the fitted acceleration.
 double slideAcceleration(World& world, double theta, bool tiltedGravity) {
@@ -46,7 +35,7 @@ double slideAcceleration(World& world, double theta, bool tiltedGravity) {
         t.push_back(world.time);
         s.push_back((computeDiagnostics(world).centreOfMass - c0).dot(down));
     }
-    return fitAcceleration(t, s);
+    return test::fitAcceleration(t, s);
 }
 
 /// A stiff elastic block on a Coulomb floor: either a flat floor under tilted gravity, or an
