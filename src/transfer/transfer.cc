@@ -227,6 +227,12 @@ Mat3f toMatrix(const Sym3f& t) {
     return m;
 }
 
+/// The MLS force as an affine momentum: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al.
+/// 2018, eq. 18), with dInv = D^-1.
+inline Mat3f stressImpulse(const ParticleSet& ps, std::uint32_t i, float dt, float dInv) {
+    return Mat3f((-dt * ps.volume0[i] * dInv) * toMatrix(ps.stress(i)));
+}
+
 /// P2G with a slip surface: each field gets its own mass, momentum and (FLIP) stress impulse, the
 /// lower field in Grid::mass / velocity / aux as with one field, the upper one in Grid::aux
 /// (AuxLayout), with the bond of every node from the weak layer's collapsed share of its mass.
@@ -252,7 +258,7 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
                 value[weakAt] = m;
                 value[weakAt + 1] = (flags & kFlagCollapsed) ? 0.f : m;
             }
-            affine = Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.stress(i)));
+            affine = stressImpulse(ps, i, params.dt, dInv);
             if (!Flip && apic && !ps.asleep(i)) affine += m * ps.C[i];
             return upper;
         });
@@ -288,17 +294,13 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     }
     const float dInv = apicInverseD(1.f / params.dx);
     const bool apic = params.transfer == Transfer::Apic;
-    // MLS force: -dt V0 tau D^-1 (x_i - x_p) per unit weight (Hu et al. 2018, eq. 18).
-    auto stressImpulse = [&](std::uint32_t i) {
-        return Mat3f((-params.dt * ps.volume0[i] * dInv) * toMatrix(ps.stress(i)));
-    };
     if (params.transfer != Transfer::Flip) {
         scatterLeaves<Dim, 4, true, 1>(
             ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
                 const float m = ps.mass[i];
                 value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
                 value[3] = m * ps.v[i][2];
-                affine = stressImpulse(i);
+                affine = stressImpulse(ps, i, params.dt, dInv);
                 if (apic && !ps.asleep(i)) affine += m * ps.C[i];
                 return false;
             });
@@ -319,7 +321,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
             const float m = ps.mass[i];
             value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
             value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
-            affine = stressImpulse(i);
+            affine = stressImpulse(ps, i, params.dt, dInv);
             return false;
         });
     mergeBlocks<Dim, 7>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
