@@ -854,3 +854,21 @@ TEST_CASE("firn check names the slip surface, its bodies and its friction", "[cl
                                   dir);
     CHECK(given.out.find("bodies above: \"slab\"; friction 0.4 (scene)\n") != std::string::npos);
 }
+
+TEST_CASE("firn check notes a weak layer fewer than 4 cells thick", "[cli]") {
+    // bench/slab_drag.toml: a 0.2 m weak layer at dx 0.05 (4 cells: no note) and at dx 0.1
+    // (2 cells: the crack's speed depends on the layer's softening there, README).
+    TempDir dir("firn-cli-check-cells");
+    const std::string scene = std::string(FIRN_SOURCE_DIR) + "/bench/slab_drag.toml";
+    const Outcome fine = runFirn({"check", scene}, dir);
+    CHECK(fine.code == 0);
+    CHECK(fine.out.find("cells thick") == std::string::npos);
+    const Outcome coarse = runFirn({"check", scene, "--set", "grid.dx=0.1"}, dir);
+    INFO(coarse.out << coarse.err);
+    CHECK(coarse.code == 0);
+    CHECK(coarse.out.find("  body 2 \"weak\" (weak): ") != std::string::npos);
+    CHECK(coarse.out.find(" particles\n    note: the weak layer is 2 cells thick; below 4 the "
+                          "crack's speed depends on its `softening`") != std::string::npos);
+    // Only the weak layer gets it: the 0.15 m base is 1.5 cells.
+    CHECK(coarse.out.find("cells thick") == coarse.out.rfind("cells thick"));
+}
