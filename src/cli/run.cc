@@ -35,11 +35,9 @@ namespace {
 /// for other bodies.
 std::string weakLayerResolutionNote(const SceneDesc& scene, const BodyDesc& body) {
     constexpr double kCellsWhereSofteningStopsMattering = 4.0;
-    if (!isLayerShape(body.shape)) return "";
-    const auto material =
-        std::find_if(scene.materials.begin(), scene.materials.end(),
-                     [&](const MaterialDesc& m) { return m.name == body.material; });
-    if (material == scene.materials.end() || material->model != MaterialModel::WeakLayer) return "";
+    if (!isLayerShape(body.shape) ||
+        scene.materials[std::size_t(body.materialIndex)].model != MaterialModel::WeakLayer)
+        return "";
     double thickness = body.thickness;
     for (const auto& point : body.thicknessProfile)
         thickness = thickness > 0.0 ? std::min(thickness, point[1]) : point[1];
