@@ -12,9 +12,14 @@ concave slope presses the slab harder), from rest at the release time, for each 
 Prints the slab's centre-of-mass height above the lowest ground point and the frictionless bound
 sqrt(2 g h) on its speed, the speed against time for each mu, and, with --run, the run's
 `slab_speed` beside it. README "Slope-scale runs" uses it for scenes/slope3d.toml.
+What-ifs: --x-range LO HI releases only the slab between x = LO and HI (a release of part of the
+slope); --profile-power N replaces the ground by y = H (1 - x/L)^N through the profile's own
+drop H and length L (to its lowest point; flat beyond): N = 2 is the parabola of slope3d, a larger
+N a more concave slope, steeper at the top (N = 2.44 gives 45 degrees there for L 22, H 9).
 
     /usr/bin/python3 bench/rigid_slab.py scenes/slope3d.toml [--friction 0 0.1 0.3 0.5 0.69]
                      [--release 0.3] [--end 3] [--bodies slab block] [--run OUT_DIR]
+                     [--x-range LO HI] [--profile-power N]
 """
 import argparse
 import csv
@@ -23,6 +28,16 @@ import sys
 import tomllib
 
 import numpy as np
+
+
+def power_profile(points, power):
+    """y = H (1 - x/L)^power from the profile's first point to its lowest, flat beyond."""
+    x0, top = points[0]
+    low = int(np.argmin(points[:, 1]))
+    length, bottom = points[low, 0] - x0, points[low, 1]
+    xs = np.linspace(x0, x0 + length, 201)
+    ys = bottom + (top - bottom) * (1.0 - (xs - x0) / length)**power
+    return np.vstack([np.column_stack([xs, ys]), points[low + 1:]])
 
 
 def scene_geometry(path, names=None):
@@ -47,8 +62,10 @@ G = 9.81
 class Sheet:
     """The released mass along the ground: positions (arc length) and masses of its elements."""
 
-    def __init__(self, path, names=None):
+    def __init__(self, path, names=None, x_range=None, profile_power=None):
         dim, densities, points, slabs, riders = scene_geometry(path, names)
+        if profile_power is not None:
+            points = power_profile(points, profile_power)
         xs = np.linspace(points[0, 0], points[-1, 0], 40001)
         ys = np.interp(xs, points[:, 0], points[:, 1])
         slope = np.gradient(ys, xs)
@@ -59,7 +76,10 @@ class Sheet:
         self.dim = dim
         at, mass = [], []
         for b in slabs:
-            x = np.linspace(*b['x_range'], 2000)
+            lo, hi = b['x_range']
+            if x_range is not None:
+                lo, hi = max(lo, x_range[0]), min(hi, x_range[1])
+            x = np.linspace(lo, hi, 2000)
             if 'thickness_profile' in b:
                 tp = np.array(b['thickness_profile'], float)
                 h = np.interp(x, tp[:, 0], tp[:, 1])
@@ -111,8 +131,12 @@ def main():
     ap.add_argument('--end', type=float, default=3.0, help='s')
     ap.add_argument('--bodies', nargs='+', help='the released bodies (default: those with slides_on)')
     ap.add_argument('--run', help='an output folder: its metrics.csv slab_speed is printed beside')
+    ap.add_argument('--x-range', type=float, nargs=2, metavar=('LO', 'HI'),
+                    help='m: release only the slab between these x')
+    ap.add_argument('--profile-power', type=float, metavar='N',
+                    help='replace the ground by y = H (1 - x/L)^N through the same H and L')
     args = ap.parse_args()
-    sheet = Sheet(args.scene, args.bodies)
+    sheet = Sheet(args.scene, args.bodies, args.x_range, args.profile_power)
     print(f'{args.scene}: released mass {sheet.mass.sum():.0f} kg{"" if sheet.dim == 3 else "/m"}, '
           f'centre of mass {sheet.height:.2f} m above the lowest ground; frictionless bound '
           f'sqrt(2 g h) = {math.sqrt(2 * G * sheet.height):.2f} m/s')
