@@ -456,6 +456,27 @@ def check_pulled_slab(binary, work):
     check(purple.sum() > 50, f"the block count is drawn ({purple.sum()} purple pixels)")
 
 
+def check_crack_origin():
+    """The arrival chart's origin and front speeds on a made-up bed: a crack spreading in circles
+    at 25 m/s from (5, 2) m from t = 0.2 s, and one cell at the far corner that yielded on its
+    own at t = 0 (as a free corner's particle beyond its strength does): the origin is the
+    circle's centre, not the lone cell, and the three fits read 25 m/s (exact data: 1e-6)."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "render"))
+    import report  # noqa: E402  (render/report.py, which `firn report` runs)
+    dx = 0.1
+    gx, gz = np.meshgrid(np.arange(0, 101) * dx, np.arange(0, 41) * dx)
+    x, z = gx.ravel(), gz.ravel()
+    t = 0.2 + np.hypot(x - 5.0, z - 2.0) / 25.0
+    t[np.argmin(x + z)] = 0.0
+    speeds = report.arrival_speeds(x, z, t, dx)
+    x0, z0, t0 = speeds["origin"]
+    check(abs(x0 - 5.0) < 1e-9 and abs(z0 - 2.0) < 1e-9 and abs(t0 - 0.2) < 1e-9,
+          f"the crack's origin is the circles' centre, not the lone early cell ({x0}, {z0}, {t0})")
+    for way in ("up", "down", "across"):
+        check(speeds[way] is not None and abs(speeds[way] - 25.0) < 1e-6,
+              f"{way} front speed 25 m/s: {speeds[way]}")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--firn", required=True)
@@ -463,6 +484,7 @@ def main():
     args = parser.parse_args()
     work = pathlib.Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
+    check_crack_origin()
     check_pst(args.firn, work)
     check_pst_3d(args.firn, work)
     check_slide(args.firn, work)
