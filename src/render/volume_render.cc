@@ -632,6 +632,7 @@ RenderResult renderOutput(const std::string& outDir, const RenderOptions& option
     }
     std::vector<Image> sheetImages;
     double renderSeconds = 0.0, frameRate = 24.0;
+    const bool stderrIsTerminal = isatty(fileno(stderr));
     for (std::size_t i = 0; i < frames.size(); ++i) {
         const VolumeFrameGrids grids = readFrame(frames[i].first, frames[i].second, view.colorBy);
         frameRate = grids.frameRate;
@@ -657,11 +658,15 @@ RenderResult renderOutput(const std::string& outDir, const RenderOptions& option
             sheetIndex.end())
             sheetImages.push_back(std::move(image));
         if (!options.quiet) {
-            std::fprintf(stderr, "\rfirn render: frame %zu/%zu (%.2f s/frame)", i + 1,
-                         frames.size(), renderSeconds / (i + 1));
+            // One updating line on a terminal; in a log (no terminal) one line per frame, so
+            // that the lines do not run together.
+            std::fprintf(stderr, "%sfirn render: frame %zu/%zu (%.2f s/frame)%s",
+                         stderrIsTerminal ? "\r\033[K" : "", i + 1, frames.size(),
+                         renderSeconds / (i + 1), stderrIsTerminal ? "" : "\n");
+            std::fflush(stderr);
         }
     }
-    if (!options.quiet) std::fputc('\n', stderr);
+    if (!options.quiet && stderrIsTerminal) std::fputc('\n', stderr);
     const int columns = sheetImages.size() <= 4 ? 2 : sheetImages.size() <= 9 ? 3 : 4;
     const double scale = std::min(0.5, 1920.0 / (columns * view.width));
     writePng(result.directory + "/contact.png", contactSheet(sheetImages, columns, scale));
