@@ -473,6 +473,17 @@ TEST_CASE("firn check prints each material's values and where each came from",
     CHECK(shows("density +100 kg/m\\^3 +default"));
     CHECK(shows("initial_p0 +6900 Pa +table: .*Firn PST calibration at 100 kg/m\\^3.*"));
     CHECK(shows("softening +50 +--set"));
+    CHECK(shows("softening_length +0\\.06 m +table: the PST layer alpha was calibrated on .*"));
+    // At the scene's dx (0.05) the crack band is thicker than 0.06 m: alpha as given, no line.
+    CHECK(o.out.find("softening at this dx") == std::string::npos);
+
+    // Refined to dx 0.005 the band (6 cells, 0.03 m) is half the calibrated layer: alpha halves.
+    const Outcome fine = runFirn(
+        {"check", path, "--set", "material.weak.softening=50", "--set", "grid.dx=0.005"}, dir);
+    INFO(fine.out << fine.err);
+    REQUIRE(fine.code == 0);
+    CHECK(std::regex_search(fine.out, std::regex("\\n    softening at this dx +25 +crack band: "
+                                                 "softening x 6 dx / softening_length\\n")));
 }
 
 TEST_CASE("firn check says where each saw cut is and which saw makes it", "[cli]") {

@@ -815,3 +815,35 @@ TEST_CASE("a snow particle counts as fractured once p0 has softened to half its 
     weak.model = MaterialModel::WeakLayer;
     CHECK_FALSE(slabFractured(weak, atRatio(0.0))); // the weak layer is no slab
 }
+
+TEST_CASE("Weak layer softening: the crack band scales alpha with the cell size below its length",
+          "[material][weaklayer]") {
+    // alpha * min(1, 6 dx / length): the band of 6 cells (kCrackBandCells) dissipates per unit
+    // area in proportion to its thickness over alpha, so a band half as thick needs half the
+    // alpha to dissipate what the calibrated layer did. Exact arithmetic.
+    CHECK(kCrackBandCells == 6.0);
+    CHECK(crackBandSoftening(100.0, 0.06, 0.01) == Approx(100.0).epsilon(1e-12));
+    CHECK(crackBandSoftening(100.0, 0.06, 0.005) == Approx(50.0).epsilon(1e-12));
+    CHECK(crackBandSoftening(100.0, 0.06, 0.0075) == Approx(75.0).epsilon(1e-12));
+    CHECK(crackBandSoftening(100.0, 0.06, 0.05) == 100.0);  // a band thicker than the length
+    CHECK(crackBandSoftening(100.0, 0.0, 0.0075) == 100.0); // no length: off
+    CHECK(crackBandSoftening(100.0, 0.06, 0.0) == 100.0);   // a single point
+
+    // alpha 1 (p0 20 kPa, K 667 kPa, xi 5: collapse at eta = asinh(0.03) / 5 = 0.006): a
+    // squeeze 0.1 p0 past the tip is a plastic volume change of 0.003, short of collapse.
+    MaterialDesc desc = roundDesc(MaterialModel::WeakLayer);
+    desc.softening = 1.0;
+    desc.softeningLength = 0.06;
+    CHECK(Material::fromDesc(desc, 2, 0.005).camClay.alpha == Approx(0.5f));
+    CHECK(Material::fromDesc(desc, 2).camClay.alpha == 1.f);
+    // Half the alpha: the same plastic volume change softens half as far (eq. 4).
+    const Material fine = Material::fromDesc(desc, 2, 0.005);
+    const Material point = Material::fromDesc(desc, 2);
+    const PlasticState s0 = point.initialState();
+    const float p0 = point.camClay.p0Initial;
+    const Vec3f squeeze = strainFor(point, 1.1f * p0, 0.f, deviatoricDirection(2));
+    const float etaPoint = returnMapWeakLayer(point, squeeze, s0).state.eta;
+    const float etaFine = returnMapWeakLayer(fine, squeeze, s0).state.eta;
+    REQUIRE(etaPoint > 0.f);
+    CHECK(etaFine == Approx(0.5f * etaPoint).epsilon(1e-4));
+}

@@ -193,3 +193,21 @@ TEST_CASE("the particle estimate matches seeding without seeding", "[setup]") {
     const std::vector<double> fineEstimate = estimateParticlesPerBody(fine);
     CHECK(fineEstimate[1] == Approx(estimate[1] * 1e4).epsilon(0.03));
 }
+
+TEST_CASE("the world's weak layer gets the crack band's softening at the scene's dx", "[setup]") {
+    // softening_length from the table (0.06 m): at dx 0.0075 the 6-cell band is 0.045 m, so
+    // alpha 100 becomes 75; at dx 0.01 the band is the layer's 0.06 m and alpha stays.
+    auto text = [](const std::string& dx) {
+        return "[simulation]\nname = \"band\"\ndimension = 2\nend_time = 1.0\n"
+               "[grid]\ndx = " +
+               dx +
+               "\n"
+               "[[material]]\nname = \"weak\"\nmodel = \"weak_layer\"\nsoftening = 100\n";
+    };
+    CHECK(buildWorld(test::sceneFromText(text("0.0075")), BuildStage::Bare)
+              ->materials[0]
+              .camClay.alpha == 75.f);
+    CHECK(buildWorld(test::sceneFromText(text("0.01")), BuildStage::Bare)
+              ->materials[0]
+              .camClay.alpha == 100.f);
+}

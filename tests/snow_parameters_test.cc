@@ -92,6 +92,7 @@ TEST_CASE("The slab table at 250 kg/m^3", "[snow_parameters]") {
     CHECK(uniaxialTensileStrength(t.initialP0.value, 0.5, 1.0) ==
           Approx(t.tensileStrength.value).epsilon(1e-12));
     CHECK(t.softening.source.empty()); // a slab has no weak-layer parameters
+    CHECK(t.softeningLength.source.empty());
     CHECK(t.dynamicCriticalStateSlope.source.empty());
 }
 
@@ -105,6 +106,7 @@ TEST_CASE("The weak layer table at 100 kg/m^3 is the calibrated PST weak layer",
     CHECK(t.initialP0.value == Approx(6900.0).epsilon(1e-12));
     CHECK(t.hardening.value == 0.015);
     CHECK(t.softening.value == 100.0);
+    CHECK(t.softeningLength.value == 0.06); // the PST layer's thickness
     CHECK(t.dynamicCriticalStateSlope.value == 1.2);
     // Its uniaxial tensile strength, and Sigrist's law at the same density within 7 %.
     CHECK(t.tensileStrength.value == Approx(1156.01).epsilon(1e-5));
@@ -196,9 +198,10 @@ model = "weak_layer"
     CHECK(weak.youngsModulus == Approx(4.8e5).epsilon(1e-12));
     CHECK(weak.initialP0 == Approx(6900.0).epsilon(1e-12));
     CHECK(weak.softening == 100.0);
+    CHECK(weak.softeningLength == 0.06);
     CHECK(weak.dynamicCriticalStateSlope == 1.2);
     const std::vector<MaterialParameter> shown = materialParameters(weak);
-    REQUIRE(shown.size() == 9);
+    REQUIRE(shown.size() == 10);
     CHECK(std::string(shown[0].key) == "density");
     CHECK(shown[0].origin == "default");
     CHECK(std::string(shown[5].key) == "initial_p0");

@@ -86,11 +86,15 @@ struct MaterialDesc {
     double density = 250.0;       ///< kg/m^3
     double youngsModulus = 1.0e6; ///< Pa
     double poissonRatio = 0.3;
-    double criticalStateSlope = 1.0;        ///< M
-    double cohesionRatio = 0.3;             ///< beta
-    double initialP0 = 2.0e4;               ///< Pa
-    double hardening = 5.0;                 ///< xi
-    double softening = 1.0;                 ///< alpha (weak layer)
+    double criticalStateSlope = 1.0; ///< M
+    double cohesionRatio = 0.3;      ///< beta
+    double initialP0 = 2.0e4;        ///< Pa
+    double hardening = 5.0;          ///< xi
+    double softening = 1.0;          ///< alpha (weak layer)
+    /// m (weak layer): the thickness of failing layer that `softening` was measured for; where
+    /// the band a collapse leaves (kCrackBandCells cells) is thinner, alpha is scaled down with it
+    /// (crack band). 0: alpha as given at any dx.
+    double softeningLength = 0.0;
     double dynamicCriticalStateSlope = 1.2; ///< M_d (weak layer)
     double frictionAngle = 30.0;            ///< degrees (granular; at rest with mu(I))
     /// Granular mu(I) rheology: the friction angle at large inertial number (degrees); the

@@ -33,6 +33,7 @@ struct SnowParameterTable {
     TableValue initialP0;                 ///< Pa, from tensileStrength with this beta and M
     TableValue hardening;                 ///< xi, constant
     TableValue softening;                 ///< alpha, weak layer only (0 and no source for a slab)
+    TableValue softeningLength;           ///< m, weak layer only: where alpha was calibrated
     TableValue dynamicCriticalStateSlope; ///< M_d, weak layer only (0 and no source for a slab)
 };
 

@@ -589,8 +589,9 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
     return result;
 }
 
-/// One material's parameters as the simulation will use them, and where each came from.
-std::string describeMaterial(const MaterialDesc& material) {
+/// One material's parameters as the simulation will use them on a grid of spacing dx, and where
+/// each came from.
+std::string describeMaterial(const MaterialDesc& material, double dx) {
     std::ostringstream out;
     out << "  material \"" << material.name << "\" (" << toString(material.model) << "):\n";
     for (const MaterialParameter& p : materialParameters(material)) {
@@ -598,6 +599,14 @@ std::string describeMaterial(const MaterialDesc& material) {
         value << std::setprecision(4) << p.value << (*p.unit ? " " : "") << p.unit;
         out << "    " << std::left << std::setw(30) << p.key << std::setw(16) << value.str()
             << p.origin << "\n";
+    }
+    const double alpha = crackBandSoftening(material.softening, material.softeningLength, dx);
+    if (material.model == MaterialModel::WeakLayer && alpha != material.softening) {
+        std::ostringstream value;
+        value << std::setprecision(4) << alpha;
+        out << "    " << std::left << std::setw(30) << "softening at this dx" << std::setw(16)
+            << value.str() << "crack band: softening x " << kCrackBandCells << " dx / "
+            << "softening_length\n";
     }
     return out.str();
 }
@@ -639,7 +648,8 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
             out << ", blend " << scene.grid.flipBlend;
     }
     out << "\n";
-    for (const MaterialDesc& material : scene.materials) out << describeMaterial(material);
+    for (const MaterialDesc& material : scene.materials)
+        out << describeMaterial(material, scene.grid.dx);
     out << describeTerrain(scene);
     out << "  memory: about " << formatBytes(memory.bytes) << " for about "
         << std::llround(memory.particles) << " particles; "

@@ -31,7 +31,12 @@ Lame Lame::fromYoungPoisson(double youngsModulus, double poissonRatio) {
     return lame;
 }
 
-Material Material::fromDesc(const MaterialDesc& desc, int dim) {
+double crackBandSoftening(double softening, double softeningLength, double dx) {
+    if (softeningLength <= 0.0 || dx <= 0.0) return softening;
+    return softening * std::min(1.0, kCrackBandCells * dx / softeningLength);
+}
+
+Material Material::fromDesc(const MaterialDesc& desc, int dim, double dx) {
     Material m;
     m.model = desc.model;
     m.density = float(desc.density);
@@ -39,7 +44,7 @@ Material Material::fromDesc(const MaterialDesc& desc, int dim) {
     m.camClay.M = float(desc.criticalStateSlope);
     m.camClay.beta = float(desc.cohesionRatio);
     m.camClay.xi = float(desc.hardening);
-    m.camClay.alpha = float(desc.softening);
+    m.camClay.alpha = float(crackBandSoftening(desc.softening, desc.softeningLength, dx));
     m.camClay.Md = float(desc.dynamicCriticalStateSlope);
     m.camClay.p0Initial = float(desc.initialP0);
     m.frictionAngleDeg = float(desc.frictionAngle);

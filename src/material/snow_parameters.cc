@@ -48,6 +48,7 @@ constexpr double kWeakCohesionRatio = 0.1;
 constexpr double kWeakInitialP0 = 6900.0; // Pa
 constexpr double kWeakHardening = 0.015;
 constexpr double kWeakSoftening = 100.0;
+constexpr double kWeakSofteningLength = 0.06; // m, the PST's weak layer
 constexpr double kWeakDynamicCriticalStateSlope = 1.2;
 
 const DensityRange kSlabDensities{60.0, 500.0};
@@ -129,6 +130,9 @@ SnowParameterTable weakLayerTable(double density) {
     t.initialP0 = initialP0FromTable(t, kWeakCohesionRatio, kWeakCriticalStateSlope);
     t.hardening = calibrated(kWeakHardening);
     t.softening = calibrated(kWeakSoftening);
+    t.softeningLength = {kWeakSofteningLength,
+                         "the PST layer alpha was calibrated on (its collapse band fills the "
+                         "6 cm at dx >= 0.01); crack band, README Snow"};
     t.dynamicCriticalStateSlope = calibrated(kWeakDynamicCriticalStateSlope);
     return t;
 }

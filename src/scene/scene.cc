@@ -70,6 +70,7 @@ const MaterialField kMaterialFields[] = {
     {"initial_p0", &MaterialDesc::initialP0, Range::positive(), kCamClay, "Pa"},
     {"hardening", &MaterialDesc::hardening, Range::positive(), kCamClay, ""},
     {"softening", &MaterialDesc::softening, Range::nonNegative(), kWeakLayer, ""},
+    {"softening_length", &MaterialDesc::softeningLength, Range::nonNegative(), kWeakLayer, "m"},
     {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope, Range::positive(),
      kWeakLayer, ""},
     {"friction_angle", &MaterialDesc::frictionAngle, Range::open(0.0, 90.0), kGranular, "degrees"},
@@ -269,6 +270,7 @@ void applySnowTable(const TableReader& r, MaterialDesc& m) {
         {"cohesion_ratio", &MaterialDesc::cohesionRatio, table.cohesionRatio},
         {"hardening", &MaterialDesc::hardening, table.hardening},
         {"softening", &MaterialDesc::softening, table.softening},
+        {"softening_length", &MaterialDesc::softeningLength, table.softeningLength},
         {"dynamic_critical_state_slope", &MaterialDesc::dynamicCriticalStateSlope,
          table.dynamicCriticalStateSlope},
     };

@@ -517,7 +517,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
     w.domainMin = toVec3f(scene.simulation.domainMin);
     w.domainMax = toVec3f(scene.simulation.domainMax);
     for (const MaterialDesc& m : scene.materials)
-        w.materials.push_back(Material::fromDesc(m, w.dim));
+        w.materials.push_back(Material::fromDesc(m, w.dim, scene.grid.dx));
     markSlabMaterials(scene, w.materials);
     for (const TerrainDesc& t : scene.terrains) w.colliders.push_back(Collider::fromDesc(t, w.dim));
 
