@@ -4,9 +4,10 @@ at several grid spacings and slope angles, beside the closed form of Gaume et al
 
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
         [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
-        [--speed-column 6] [--out DIR]
+        [--speed-column 6] [--bracket 0 0.8] [--steps 5] [--threads N] [--out DIR]
 
-For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm) on a 3 m column with the cut at the
+For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm; --bracket and
+--steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with the cut at the
 down-slope end, as in the field (criterion "run": the crack reaches the up-slope end within
 0.2 s; "onset": it grows more than 0.3 m past the cut), then the steady crack speed on the full
 6 m column (--speed-column) with a 0.8 m cut at its down-slope end (not with --ac-only), as
@@ -32,8 +33,12 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+THREADS = []
+
+
 def run(firn, overrides, out, extra=()):
     args = [firn, "run", os.path.join(ROOT, "scenes", "pst.toml"), "--quiet", "--out", out,
+            *THREADS,
             "--set", "output.particles=false", "--set", "output.volumes=[]"]
     for o in list(extra) + list(overrides):
         args += ["--set", o]
@@ -91,8 +96,8 @@ def front_speed(out, start, end):
     return (start - end) / (t_end - t_start)
 
 
-def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5):
-    stays, runs = 0.0, 0.8
+def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8)):
+    stays, runs = bracket
     seconds = 0.0
     length = 3.0
     for i in range(steps):
@@ -122,11 +127,18 @@ def main():
     only = parser.add_mutually_exclusive_group()
     only.add_argument("--ac-only", action="store_true", help="skip the crack-speed run")
     only.add_argument("--speed-only", action="store_true", help="skip the critical cut")
+    parser.add_argument("--bracket", type=float, nargs=2, default=[0.0, 0.8],
+                        metavar=("STAYS", "RUNS"),
+                        help="cut lengths (m) the bisection starts between (default 0 0.8)")
+    parser.add_argument("--steps", type=int, default=5, help="bisection steps (default 5)")
     parser.add_argument("--speed-column", type=float, default=6.0,
                         help="length of the speed run's column, m (the cut is 0.8 m)")
+    parser.add_argument("--threads", type=int, help="threads per run (default: all cores)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "pst-resolution"))
     args = parser.parse_args()
     results_dir = args.out
+    if args.threads:
+        THREADS.extend(["--threads", str(args.threads)])
     os.makedirs(results_dir, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as work:
@@ -136,7 +148,8 @@ def main():
                        "criterion": args.criterion, "overrides": " ".join(args.overrides)}
                 if not args.speed_only:
                     stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
-                                                     args.criterion)
+                                                     args.criterion, args.steps,
+                                                     tuple(args.bracket))
                     row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
                                 "a_c_closed_form": round(closed_form_ac(slope), 4),
                                 "wall_seconds_ac": round(t_ac, 1)})

@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""Slab fractures behind the running crack on scenes/slope2d.toml (issue 10: the paper's
+"en-echelon" fractures, < 1 m behind the weak-layer crack tip in the steep part of the slope).
+
+    /usr/bin/python3 bench/slab_fracture_study.py [--variants NAME ...] [--firn build/firn]
+        [--threads N] [--end-time 0.45] [--out DIR]
+
+Runs the scene to --end-time (200 frames per second, eta volumes only) for each variant below
+and reports, from summary.json and the eta volumes (read with pyopenvdb):
+- the crack's speed along the 45 degree section (its up-slope end's first passes of x = 10 and
+  x = 5 m, along the slope) and when it reaches the top of the layer (x <= 0.6 m);
+- the process zone at x = 7.5 m: how long after softening starts there (the column's largest
+  voxel eta >= 0.01, the paper's crack tip) the layer has softened to a third of its cohesion
+  (eta >= 1.0; p0 reaches 0 at eta = 1.445 for slope2d's 88 kg/m^3 layer in 2D), and, in the
+  frame where softening starts there, how far down the slope the layer is softened that far
+  (along the 45 degree slope);
+- the slab fractures that go through while the crack runs (before it reaches the top) up-slope
+  of the block (x < 10.5 m): position, distance behind the tip, start depth (0: at the weak
+  layer, 1: at the surface), where the tip was then and how long after the tip had passed the
+  fracture's position it went through.
+Writes results.csv into bench/results/slab-fracture/ (or --out); a run of some variants replaces
+their rows and keeps the others.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import pyopenvdb as vdb
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FRAME_RATE = 200.0
+SLAB_P0 = 22440.0  # the table's slab initial_p0 at 250 kg/m^3 (firn check scenes/slope2d.toml)
+
+# name: (dx, overrides, what it tests)
+VARIANTS = {
+    "table": (0.05, [], "the shipped scene: the table's alpha 100, slab sigma_t 10.1 kPa"),
+    "alpha333": (0.05, ["material.weak.softening=333"],
+                 "alpha scaled to the PST layer's fracture energy: a 0.2 m band, 0.2/0.06 x 100"),
+    "alpha333-beta0.3": (0.05, ["material.weak.softening=333",
+                                "material.slab.cohesion_ratio=0.3",
+                                f"material.slab.initial_p0={SLAB_P0}"],
+                         "and a slab with beta 0.3 at the same p0 (sigma_t 8.0 kPa)"),
+    "alpha333-beta0.2": (0.05, ["material.weak.softening=333",
+                                "material.slab.cohesion_ratio=0.2",
+                                f"material.slab.initial_p0={SLAB_P0}"],
+                         "and a slab with beta 0.2 at the same p0 (sigma_t 6.4 kPa)"),
+    "alpha100-beta0.3": (0.05, ["material.slab.cohesion_ratio=0.3",
+                                f"material.slab.initial_p0={SLAB_P0}"],
+                         "the table's alpha with the beta 0.3 slab"),
+    "fine-alpha250": (0.025, ["material.weak.softening=250"],
+                      "dx 0.025: alpha for a 6-cell (0.15 m) band, the table's slab"),
+    "fine-alpha250-beta0.3": (0.025, ["material.weak.softening=250",
+                                      "material.slab.cohesion_ratio=0.3",
+                                      f"material.slab.initial_p0={SLAB_P0}"],
+                              "dx 0.025: alpha for a 6-cell (0.15 m) band, beta 0.3 slab"),
+}
+
+
+def run(firn, dx, overrides, out, end_time, threads):
+    args = [firn, "run", os.path.join(ROOT, "scenes", "slope2d.toml"), "--quiet", "--out", out,
+            "--set", f"grid.dx={dx}", "--set", f"simulation.end_time={end_time}",
+            "--set", f"simulation.frame_rate={FRAME_RATE:g}", "--set", "output.particles=false",
+            "--set", 'output.volumes=["eta"]']
+    if threads:
+        args += ["--threads", str(threads)]
+    for o in overrides:
+        args += ["--set", o]
+    start = time.time()
+    subprocess.run(args, check=True)
+    with open(os.path.join(out, "summary.json")) as f:
+        return json.load(f), time.time() - start
+
+
+def first_pass(tips, x):
+    """Time the crack's up-slope end first reached x (tips: summary.json's crack_tip_steps)."""
+    return next((t["time"] for t in tips if t["x"] <= x), None)
+
+
+def ms_after_tip(tips, fracture):
+    """Milliseconds from the tip's first pass of the fracture's x to the fracture ("ahead" when
+    the tip had not got there)."""
+    passed = first_pass(tips, fracture["x"])
+    if passed is None or passed > fracture["time"]:
+        return "ahead"
+    return f"{1000.0 * (fracture['time'] - passed):.0f}"
+
+
+def tip_at(tips, time_s):
+    return min((t["x"] for t in tips if t["time"] <= time_s), default=None)
+
+
+def column_eta(out, frames, dx, x):
+    """Per frame, the largest voxel eta in the grid column at x (voxel size dx, index i)."""
+    i = int(round(x / dx))
+    values = []
+    for k in range(frames):
+        path = os.path.join(out, "frames", f"volume.{k:04d}.vdb")
+        grid = vdb.read(path, "eta")
+        lo, hi = grid.evalActiveVoxelBoundingBox()
+        acc = grid.getConstAccessor()
+        values.append(max((acc.getValue((i, j, 0)) for j in range(lo[1], hi[1] + 1)),
+                          default=0.0))
+    return values
+
+
+def softened_front(out, frame, dx, x_from, threshold=1.0):
+    """Smallest x >= x_from of a grid column whose largest voxel eta is >= threshold in that
+    frame: the up-slope end of the layer softened that far below x_from (None when none is)."""
+    grid = vdb.read(os.path.join(out, "frames", f"volume.{frame:04d}.vdb"), "eta")
+    acc = grid.getConstAccessor()
+    lo, hi = grid.evalActiveVoxelBoundingBox()
+    for i in range(max(lo[0], int(round(x_from / dx))), hi[0] + 1):
+        if any(acc.getValue((i, j, 0)) >= threshold for j in range(lo[1], hi[1] + 1)):
+            return i * dx
+    return None
+
+
+def first_frame_at_least(values, threshold):
+    return next((k / FRAME_RATE for k, v in enumerate(values) if v >= threshold), None)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=list(VARIANTS))
+    parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
+    parser.add_argument("--threads", type=int)
+    parser.add_argument("--end-time", type=float, default=0.45)
+    parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "slab-fracture"))
+    args = parser.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    results = os.path.join(args.out, "results.csv")
+    kept = {}
+    if os.path.exists(results):  # a subset of variants replaces only its own rows
+        with open(results) as f:
+            kept = {row["variant"]: row for row in csv.DictReader(f)}
+    rows = []
+    with tempfile.TemporaryDirectory() as work:
+        for name in args.variants:
+            dx, overrides, note = VARIANTS[name]
+            out = os.path.join(work, name)
+            summary, seconds = run(args.firn, dx, overrides, out, args.end_time, args.threads)
+            tips = summary["crack_tip_steps"]
+            t10, t5 = first_pass(tips, 10.0), first_pass(tips, 5.0)
+            section_speed = (5.0 * math.sqrt(2.0) / (t5 - t10)
+                             if t10 is not None and t5 is not None and t5 > t10 else None)
+            top = first_pass(tips, 0.6)
+            frames = int(round(args.end_time * FRAME_RATE)) + 1
+            eta = column_eta(out, frames, dx, 7.5)
+            onset, softened = first_frame_at_least(eta, 0.01), first_frame_at_least(eta, 1.0)
+            lag = softened - onset if onset is not None and softened is not None else None
+            front = (softened_front(out, int(round(onset * FRAME_RATE)), dx, 7.5)
+                     if onset is not None else None)
+            running = [f for f in summary["slab_fractures"]
+                       if f["x"] < 10.5 and (top is None or f["time"] <= top)]
+            row = {
+                "variant": name, "dx": dx, "overrides": " ".join(overrides), "note": note,
+                "mean_crack_speed": round(summary["mean_crack_speed"] or 0.0, 1),
+                "section_speed_45deg": round(section_speed, 1) if section_speed else "",
+                "top_time": round(top, 4) if top is not None else "",
+                "softening_lag_s": round(lag, 4) if lag is not None else "",
+                "process_zone_m": round((front - 7.5) * math.sqrt(2.0), 2) if front else "",
+                "fractures_while_running": len(running),
+                "fracture_x": " ".join(f"{f['x']:.2f}" for f in running),
+                "fracture_time": " ".join(f"{f['time']:.3f}" for f in running),
+                "behind_tip_m": " ".join(f"{f['distance_behind_crack_tip']:.2f}"
+                                         for f in running),
+                "start_depth": " ".join(f"{f['start_depth_fraction']:.2f}" for f in running),
+                "tip_at_fracture": " ".join(f"{tip_at(tips, f['time']):.2f}" for f in running),
+                "ms_after_tip_passed": " ".join(ms_after_tip(tips, f) for f in running),
+                "wall_seconds": round(seconds, 1),
+            }
+            rows.append(row)
+            print(row, flush=True)
+    fresh = {row["variant"]: row for row in rows}
+    ordered = [fresh.get(name) or kept[name] for name in VARIANTS if name in fresh or name in kept]
+    with open(results, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(ordered)
+    print(f"wrote {results}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
