@@ -527,6 +527,11 @@ def crack_chart(run, path):
         if name in run.metrics:
             a.plot(t, run.metrics[name], style, color="0.4", lw=1,
                    label=name.replace("crack_tip_", "extent ").replace("_x", ""))
+    # Where the layer's cohesion is gone (p0 = 0): behind the eta > 0 extent by the process zone.
+    for name, style in (("collapse_min_x", ":"), ("collapse_max_x", "--")):
+        if name in run.metrics and np.isfinite(run.metrics[name]).any():
+            a.plot(t, run.metrics[name], style, color="#9467bd", lw=1.2,
+                   label=name.replace("collapse_", "collapsed ").replace("_x", ""))
     a.set_xlabel("time (s)")
     a.set_ylabel("crack tip x (m)")
     a.set_title("crack tip position")

@@ -227,23 +227,32 @@ TEST_CASE("slab_speed is the speed of the slab's centre of mass, the weak layer 
     CHECK(computeDiagnostics(*world).slabSpeed() == Approx(2.5).epsilon(1e-5));
 }
 
-TEST_CASE("the crack is the largest run of failed weak-layer cells, not a stray particle",
+TEST_CASE("the crack and the collapse behind it are the largest runs of their weak-layer cells, "
+          "not a stray particle",
           "[diagnostics]") {
     auto world =
         buildWorld(test::sceneFromText(flatLayerScene("weak_layer", 0.1, 5.0)), BuildStage::Seeded);
     ParticleSet& ps = world->particles;
     REQUIRE(std::isnan(computeDiagnostics(*world).crackMinX)); // nothing has failed
+    REQUIRE(std::isnan(computeDiagnostics(*world).collapseMinX));
     // A crack over x in [1, 2] m, a gap of 3 cells bridged inside it ([1.5, 1.8] intact), and
-    // one stray particle at x > 4.5 (more than kCrackGapCells away).
+    // one stray particle at x > 4.5 (more than kCrackGapCells away). Its softening has finished
+    // (p0 reached 0: the collapse flag) over [1.8, 2] only, and in the stray particle.
     bool stray = false;
     for (std::size_t i = 0; i < ps.size(); ++i) {
         const float x = ps.x[i][0];
         if ((x > 1.f && x < 1.5f) || (x > 1.8f && x < 2.f)) ps.plastic[i].eta = 0.1f;
-        if (x > 4.5f && !stray) ps.plastic[i].eta = 0.1f, stray = true;
+        if (x > 1.8f && x < 2.f) ps.plastic[i].flags |= kFlagCollapsed;
+        if (x > 4.5f && !stray) {
+            ps.plastic[i].eta = 0.1f, stray = true;
+            ps.plastic[i].flags |= kFlagCollapsed;
+        }
     }
     const FrameDiagnostics d = computeDiagnostics(*world);
     CHECK(d.crackMinX == Approx(1.05)); // cell centres
     CHECK(d.crackMaxX == Approx(1.95));
+    CHECK(d.collapseMinX == Approx(1.85)); // the process zone: 0.8 m up-slope of it
+    CHECK(d.collapseMaxX == Approx(1.95));
 }
 
 TEST_CASE("crack tracker restarts at a new, larger crack that does not overlap the old one",

@@ -53,6 +53,14 @@ struct FrameDiagnostics {
     /// none. Cell centres, m.
     double crackMinX = std::numeric_limits<double>::quiet_NaN();
     double crackMaxX = std::numeric_limits<double>::quiet_NaN();
+    /// Cells along x (width dx) that hold weak-layer particles whose cohesion is gone
+    /// (kFlagCollapsed: p0 reached 0, eq. 4), sorted, unique, and their extent as the crack's
+    /// (the largest run, gaps of at most kCrackGapCells; NaN while none). The crack's extent is
+    /// where softening has started (the paper's tip, eta > 0); this one is where it has finished:
+    /// between the two ends lies the process zone.
+    std::vector<std::int64_t> collapseCells;
+    double collapseMinX = std::numeric_limits<double>::quiet_NaN();
+    double collapseMaxX = std::numeric_limits<double>::quiet_NaN();
     double failedFraction = 0; ///< failed mass / mass
     /// The slab's (Material::slab) mass, kg (2D: per metre), and momentum: their ratio is the
     /// velocity of its centre of mass, the speed at which the released slab moves off its bed.

@@ -147,7 +147,9 @@ const std::vector<std::string> kMetricColumns = {"frame",
                                                  "largest_block_mass",
                                                  "median_block_mass",
                                                  "outflow_mass",
-                                                 "slab_speed"};
+                                                 "slab_speed",
+                                                 "collapse_min_x",
+                                                 "collapse_max_x"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
@@ -245,7 +247,9 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
                          cell(blocks.largestMass),
                          cell(blocks.medianMass),
                          cell(w.outflowMass),
-                         cell(d.slabSpeed())});
+                         cell(d.slabSpeed()),
+                         cell(inScene(w, 0, d.collapseMinX)),
+                         cell(inScene(w, 0, d.collapseMaxX))});
 }
 
 /// The run loop's state beside the world's, for checkpoints (what writeFrame and the summary

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <type_traits>
 
 namespace firn {
@@ -98,14 +99,19 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
         if (!std::isnan(d.movedFarX)) into.movedFarX = d.movedFarX, into.movedFarY = d.movedFarY;
     mergeCellTimes(into.crackCells, into.crackCellTimes, d.crackCells, d.crackCellTimes);
+    if (!d.collapseCells.empty()) {
+        std::vector<std::int64_t> cells;
+        std::set_union(into.collapseCells.begin(), into.collapseCells.end(),
+                       d.collapseCells.begin(), d.collapseCells.end(), std::back_inserter(cells));
+        into.collapseCells = std::move(cells);
+    }
     mergeCellTimes(into.crackPlanCells, into.crackPlanCellTimes, d.crackPlanCells,
                    d.crackPlanCellTimes);
 }
 
-/// The crack's extent: the run of cells with the most failed cells (the lower one on ties),
-/// gaps of up to kCrackGapCells bridged.
-void crackExtent(FrameDiagnostics& d, double dx) {
-    const std::vector<std::int64_t>& c = d.crackCells;
+/// The extent of a crack along x: the run of cells with the most cells (the lower one on ties),
+/// gaps of up to kCrackGapCells bridged; cell centres, m. NaN (left as is) without cells.
+void largestRun(const std::vector<std::int64_t>& c, double dx, double& minX, double& maxX) {
     std::size_t bestBegin = 0, bestEnd = 0;
     for (std::size_t begin = 0; begin < c.size();) {
         std::size_t end = begin + 1;
@@ -114,8 +120,8 @@ void crackExtent(FrameDiagnostics& d, double dx) {
         begin = end;
     }
     if (bestEnd == bestBegin) return;
-    d.crackMinX = (double(c[bestBegin]) + 0.5) * dx;
-    d.crackMaxX = (double(c[bestEnd - 1]) + 0.5) * dx;
+    minX = (double(c[bestBegin]) + 0.5) * dx;
+    maxX = (double(c[bestEnd - 1]) + 0.5) * dx;
 }
 
 FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
@@ -156,8 +162,9 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         }
         if (mat.model == MaterialModel::WeakLayer) {
             d.hasWeakLayer = true;
+            const auto cellX = std::int64_t(std::floor(x[0] / world.dx));
+            if (ps.plastic[i].flags & kFlagCollapsed) d.collapseCells.push_back(cellX);
             if (ps.plastic[i].eta > 0.f) {
-                const auto cellX = std::int64_t(std::floor(x[0] / world.dx));
                 const float time = ps.plastic[i].fractureTime;
                 cracked.push_back({cellX, time});
                 if (world.dim == 3)
@@ -167,6 +174,9 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         }
     }
     uniqueCellTimes(cracked, d.crackCells, d.crackCellTimes);
+    std::sort(d.collapseCells.begin(), d.collapseCells.end());
+    d.collapseCells.erase(std::unique(d.collapseCells.begin(), d.collapseCells.end()),
+                          d.collapseCells.end());
     uniqueCellTimes(crackedPlan, d.crackPlanCells, d.crackPlanCellTimes);
     return d;
 }
@@ -183,7 +193,8 @@ FrameDiagnostics computeDiagnostics(const World& world) {
     total.topY = -std::numeric_limits<double>::infinity();
     for (const FrameDiagnostics& d : perLeaf) merge(total, d);
     total.crackCellWidth = world.dx;
-    crackExtent(total, world.dx);
+    largestRun(total.crackCells, world.dx, total.crackMinX, total.crackMaxX);
+    largestRun(total.collapseCells, world.dx, total.collapseMinX, total.collapseMaxX);
     if (total.mass > 0) {
         total.centreOfMass /= total.mass;
         total.failedFraction /= total.mass;

@@ -76,7 +76,7 @@ void CrackTracker::recordSteps(const FrameDiagnostics& d, bool fresh) {
     }
     if (grown.empty()) return;
     std::sort(grown.begin(), grown.end());
-    // The end moves to a cell when the cell cracks within reach of it (crackExtent bridges
+    // The end moves to a cell when the cell cracks within reach of it (largestRun bridges
     // kCrackGapCells); a cell that cracked on its own farther ahead waits until the end comes
     // within reach, and joins then.
     const double reach = (double(kCrackGapCells) + 1.5) * w;

@@ -132,6 +132,16 @@ void checkRemoteTriggering(const RunFiles& run, const RemoteTrigger& t) {
     CHECK(tip.front().first > t.landingTime - 0.02);
     CHECK(std::abs(tip.front().second - t.landingX) < 1.0);
     CHECK(tip.back().second < t.layerTopX + t.dx);
+    // Behind the tip the layer collapses (its cohesion gone, p0 = 0): by the end somewhere, and
+    // never up-slope of where softening has started (collapsed particles have softened; one
+    // cell of tolerance, as the two extents are each the largest run of cells).
+    CHECK(std::isfinite(last.at("collapse_min_x")));
+    for (const auto& row : rows) {
+        if (!std::isfinite(row.at("collapse_min_x"))) continue;
+        INFO("t = " << row.at("time") << " s: crack from " << row.at("crack_tip_min_x")
+                    << " m, collapsed from " << row.at("collapse_min_x") << " m");
+        CHECK(row.at("collapse_min_x") > row.at("crack_tip_min_x") - t.dx);
+    }
     for (std::size_t k = 1; k < tip.size(); ++k) {
         CHECK(tip[k].first > tip[k - 1].first);
         CHECK(tip[k].second < tip[k - 1].second);
