@@ -15,7 +15,9 @@ and reports, from summary.json and the eta volumes (read with pyopenvdb):
   frame where softening starts there, how far down the slope the layer is softened that far
   (along the 45 degree slope);
 - the slab fractures that go through while the crack runs (before it reaches the top) up-slope
-  of the block (x < 10.5 m): position, distance behind the tip, start depth (0: at the weak
+  of the block (x < 10.5 m): position, distance behind the up-slope tip (along the slope, from
+  the tip's position timed to the step; summary.json's distance_behind_crack_tip is along x),
+  start depth (0: at the weak
   layer, 1: at the surface), where the tip was then and how long after the tip had passed the
   fracture's position it went through.
 Writes results.csv into bench/results/slab-fracture/ (or --out); a run of some variants replaces
@@ -30,6 +32,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 
 import pyopenvdb as vdb
 
@@ -37,28 +40,67 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAME_RATE = 200.0
 SLAB_P0 = 22440.0  # the table's slab initial_p0 at 250 kg/m^3 (firn check scenes/slope2d.toml)
 
-# name: (dx, overrides, what it tests)
+# The scene until 2026-12-04: an 88 kg/m^3 weak layer with the table's alpha, the table's slab.
+BEFORE = ["material.weak.density=88", "material.weak.softening=100", "material.slab.hardening=0.5"]
+WEAKER_SLAB = {0.3: ["material.slab.cohesion_ratio=0.3", f"material.slab.initial_p0={SLAB_P0}"],
+               0.2: ["material.slab.cohesion_ratio=0.2", f"material.slab.initial_p0={SLAB_P0}"]}
+
+
+def before(*overrides):
+    """The scene until 2026-12-04 with `overrides` (a later --set of the same key wins)."""
+    return BEFORE + [o for group in overrides for o in group]
+
+
+# name: (dx, overrides of scenes/slope2d.toml, what it tests)
 VARIANTS = {
-    "table": (0.05, [], "the shipped scene: the table's alpha 100, slab sigma_t 10.1 kPa"),
-    "alpha333": (0.05, ["material.weak.softening=333"],
+    "shipped": (0.05, [], "the shipped scene: the PST's weak layer (100 kg/m^3) with alpha 333 "
+                "(its fracture energy per area in a 0.2 m band), a brittle slab (xi 5)"),
+    "before": (0.05, before(), "until 2026-12-04: weak layer 88 kg/m^3, the table's alpha 100 "
+               "and slab (xi 0.5, sigma_t 10.1 kPa)"),
+    "alpha333": (0.05, before(["material.weak.softening=333"]),
                  "alpha scaled to the PST layer's fracture energy: a 0.2 m band, 0.2/0.06 x 100"),
-    "alpha333-beta0.3": (0.05, ["material.weak.softening=333",
-                                "material.slab.cohesion_ratio=0.3",
-                                f"material.slab.initial_p0={SLAB_P0}"],
+    "alpha333-beta0.3": (0.05, before(["material.weak.softening=333"], WEAKER_SLAB[0.3]),
                          "and a slab with beta 0.3 at the same p0 (sigma_t 8.0 kPa)"),
-    "alpha333-beta0.2": (0.05, ["material.weak.softening=333",
-                                "material.slab.cohesion_ratio=0.2",
-                                f"material.slab.initial_p0={SLAB_P0}"],
+    "alpha333-beta0.2": (0.05, before(["material.weak.softening=333"], WEAKER_SLAB[0.2]),
                          "and a slab with beta 0.2 at the same p0 (sigma_t 6.4 kPa)"),
-    "alpha100-beta0.3": (0.05, ["material.slab.cohesion_ratio=0.3",
-                                f"material.slab.initial_p0={SLAB_P0}"],
-                         "the table's alpha with the beta 0.3 slab"),
-    "fine-alpha250": (0.025, ["material.weak.softening=250"],
-                      "dx 0.025: alpha for a 6-cell (0.15 m) band, the table's slab"),
-    "fine-alpha250-beta0.3": (0.025, ["material.weak.softening=250",
-                                      "material.slab.cohesion_ratio=0.3",
-                                      f"material.slab.initial_p0={SLAB_P0}"],
-                              "dx 0.025: alpha for a 6-cell (0.15 m) band, beta 0.3 slab"),
+    "alpha100-beta0.3": (0.05, before(WEAKER_SLAB[0.3]), "the table's alpha with the beta 0.3 slab"),
+    "slab-xi2": (0.05, before(["material.slab.hardening=2"]),
+                 "the table's alpha, a more brittle slab: xi 2 (table 0.5), same strength"),
+    "slab-xi5": (0.05, before(["material.slab.hardening=5"]),
+                 "the table's alpha, slab xi 5 (scene-format.md's default), same strength"),
+    "slab-xi20": (0.05, before(["material.slab.hardening=20"]), "the table's alpha, slab xi 20"),
+    "alpha200-slab-xi5": (0.05, before(["material.weak.softening=200",
+                                        "material.slab.hardening=5"]),
+                          "alpha 200 and slab xi 5"),
+    "alpha200-slab-xi20": (0.05, before(["material.weak.softening=200",
+                                         "material.slab.hardening=20"]),
+                           "alpha 200 and slab xi 20"),
+    "alpha333-slab-xi5": (0.05, before(["material.weak.softening=333",
+                                        "material.slab.hardening=5"]),
+                          "alpha 333 and slab xi 5"),
+    "alpha333-slab-xi20": (0.05, before(["material.weak.softening=333",
+                                         "material.slab.hardening=20"]),
+                           "alpha 333 and slab xi 20"),
+    "alpha333-slab-xi5-beta0.3": (0.05, before(["material.weak.softening=333",
+                                                "material.slab.hardening=5"], WEAKER_SLAB[0.3]),
+                                  "alpha 333, slab xi 5 and beta 0.3 (sigma_t 8.0 kPa)"),
+    "alpha333-slab-xi5-beta0.2": (0.05, before(["material.weak.softening=333",
+                                                "material.slab.hardening=5"], WEAKER_SLAB[0.2]),
+                                  "alpha 333, slab xi 5 and beta 0.2 (sigma_t 6.4 kPa)"),
+    "weak100-alpha333": (0.05, ["material.slab.hardening=0.5"],
+                         "the shipped weak layer with the table's slab (xi 0.5)"),
+    "weak94-slab-xi5": (0.05, ["material.weak.density=94"],
+                        "the shipped scene with a 94 kg/m^3 weak layer"),
+    "fine": (0.025, ["material.weak.softening=250"],
+             "dx 0.025: the shipped scene, alpha for its 6-cell (0.15 m) band"),
+    "fine-before-alpha250": (0.025, before(["material.weak.softening=250"]),
+                             "dx 0.025: the scene before, alpha for a 6-cell (0.15 m) band"),
+    "fine-before-alpha250-beta0.3": (0.025, before(["material.weak.softening=250"],
+                                                   WEAKER_SLAB[0.3]),
+                                     "dx 0.025: the scene before, alpha 250, beta 0.3 slab"),
+    "fine-before-alpha250-slab-xi5": (0.025, before(["material.weak.softening=250",
+                                                     "material.slab.hardening=5"]),
+                                      "dx 0.025: the scene before, alpha 250, slab xi 5"),
 }
 
 
@@ -75,6 +117,23 @@ def run(firn, dx, overrides, out, end_time, threads):
     subprocess.run(args, check=True)
     with open(os.path.join(out, "summary.json")) as f:
         return json.load(f), time.time() - start
+
+
+def profile_points():
+    with open(os.path.join(ROOT, "scenes", "slope2d.toml"), "rb") as f:
+        return tomllib.load(f)["terrain"][0]["points"]
+
+
+def along_slope(points, x0, x1):
+    """Length of the ground profile between x0 and x1 (> 0 when x1 > x0): distances along the
+    slope, as the paper's "< 1 m behind the tip", not along x."""
+    lo, hi = min(x0, x1), max(x0, x1)
+    length = 0.0
+    for (xa, ya), (xb, yb) in zip(points, points[1:]):
+        a, b = max(lo, xa), min(hi, xb)
+        if b > a:
+            length += (b - a) * math.hypot(1.0, (yb - ya) / (xb - xa))
+    return length if x1 >= x0 else -length
 
 
 def first_pass(tips, x):
@@ -140,6 +199,7 @@ def main():
         with open(results) as f:
             kept = {row["variant"]: row for row in csv.DictReader(f)}
     rows = []
+    points = profile_points()
     with tempfile.TemporaryDirectory() as work:
         for name in args.variants:
             dx, overrides, note = VARIANTS[name]
@@ -168,8 +228,9 @@ def main():
                 "fractures_while_running": len(running),
                 "fracture_x": " ".join(f"{f['x']:.2f}" for f in running),
                 "fracture_time": " ".join(f"{f['time']:.3f}" for f in running),
-                "behind_tip_m": " ".join(f"{f['distance_behind_crack_tip']:.2f}"
-                                         for f in running),
+                "behind_tip_m": " ".join(
+                    f"{along_slope(points, tip_at(tips, f['time']), f['x']):.2f}"
+                    for f in running),
                 "start_depth": " ".join(f"{f['start_depth_fraction']:.2f}" for f in running),
                 "tip_at_fracture": " ".join(f"{tip_at(tips, f['time']):.2f}" for f in running),
                 "ms_after_tip_passed": " ".join(ms_after_tip(tips, f) for f in running),

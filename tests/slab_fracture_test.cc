@@ -137,6 +137,38 @@ TEST_CASE("a fracture is recorded once, and a new one apart from it is recorded 
     CHECK(tracker.fractures()[1].distanceBehindCrackTip == Approx(3.5 - 1.525));
 }
 
+TEST_CASE("a fracture up-slope of the trigger lies behind the up-slope tip, while the "
+          "down-slope end leads",
+          "[slab_fracture]") {
+    // The crack starts at [1.5, 1.6] m and runs both ways: by 0.04 s up to 1.0 m (12.5 m/s) and
+    // down to 2.5 m (22.5 m/s, the leading end). The slab breaks at x 1.225 m (bin 24) at 0.04 s,
+    // up-slope of the start: 0.225 m behind the up-slope tip that passed it, not 1.275 m behind
+    // the leading one on the other side.
+    CrackTracker crack;
+    FrameDiagnostics d;
+    d.hasWeakLayer = true;
+    d.crackMinX = 1.5, d.crackMaxX = 1.6;
+    crack.update(d, 0.0);
+    d.crackMinX = 1.0, d.crackMaxX = 2.5;
+    crack.update(d, 0.04);
+    REQUIRE(crack.direction() == 1);
+    SlabFractureTracker tracker;
+    tracker.update(flatSlab(2.0, [](int i, int) { return i == 48 || i == 49 ? 0.04 : -1.0; }), kDx,
+                   2, 0.05, crack);
+    REQUIRE(tracker.fractures().size() == 1);
+    CHECK(tracker.fractures()[0].x == Approx(1.225));
+    CHECK(tracker.fractures()[0].distanceBehindCrackTip == Approx(1.225 - 1.0));
+    // Down-slope of the start it is the leading end's: 2.5 - 1.725 m.
+    CHECK(crack.distanceBehind(1.725, 0.04) == Approx(2.5 - 1.725));
+    // An end that has not propagated (creep below kMinCrackSpeed) is no tip: the leading one is.
+    CrackTracker oneWay;
+    d.crackMinX = 1.5, d.crackMaxX = 1.6;
+    oneWay.update(d, 0.0);
+    d.crackMinX = 1.45, d.crackMaxX = 2.5;
+    oneWay.update(d, 0.04);
+    CHECK(oneWay.distanceBehind(1.225, 0.04) == Approx(2.5 - 1.225));
+}
+
 TEST_CASE("a slab cut through by a fracture is two blocks", "[slab_fracture]") {
     // Bin 20 (x in [1.0, 1.05)) fully fractured: bins 0-19 on the left, 21-39 on the right.
     const auto samples = flatSlab(2.0, [](int i, int) { return i == 40 || i == 41 ? 0.1 : -1.0; });

@@ -102,6 +102,13 @@ public:
     /// the end comes within kCrackGapCells of it, and no earlier than the frame before it
     /// joined); otherwise interpolated linearly between frames.
     double tipAt(double time) const;
+    /// How far a point x lies behind the crack at `time`, m along x (> 0: the crack has passed
+    /// it): measured from the end on x's side of where the crack started, once that end has
+    /// propagated (an advance at kMinCrackSpeed or faster), otherwise from the leading tip. A
+    /// crack that runs both ways from a trigger has two tips; a slab fracture up-slope of the
+    /// trigger lies behind the up-slope one, even while the down-slope end leads. NaN before
+    /// the crack appears. Ends timed to the step as tipAt.
+    double distanceBehind(double x, double time) const;
     /// The leading end (direction()) timed to the step: (time, x) at each step it moved; empty
     /// where the frames carry no crackCellTimes.
     const std::vector<std::pair<double, double>>& tipSteps() const {
@@ -136,6 +143,8 @@ private:
     /// Appends to mUpSteps / mDownSteps the growth since the last frame (all of it for a new
     /// crack).
     void recordSteps(const FrameDiagnostics& d, bool fresh);
+    /// One end's x at `time` (side -1: the up-slope end, +1: the down-slope end).
+    double endAt(double time, int side) const;
 };
 
 /// Where and when the weak layer cracked over the bed's plan (3D): for each (x, z) cell of dx,

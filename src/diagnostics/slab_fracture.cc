@@ -234,9 +234,8 @@ void SlabFractureTracker::update(const std::vector<SlabSample>& samples, double 
         f.z = dim == 3 ? (bin.iz + 0.5) * dx : 0.0;
         f.time = bin.time;
         f.startDepthFraction = bin.startDepthFraction;
-        const double tip = crack.tipAt(f.time);
-        if (std::isfinite(tip) && crack.direction() != 0)
-            f.distanceBehindCrackTip = crack.direction() * (tip - f.x);
+        const double behind = crack.distanceBehind(f.x, f.time);
+        if (std::isfinite(behind)) f.distanceBehindCrackTip = behind;
         found.push_back(f);
     }
     std::sort(found.begin(), found.end(), [](const SlabFracture& a, const SlabFracture& b) {

@@ -112,23 +112,41 @@ void CrackTracker::recordSteps(const FrameDiagnostics& d, bool fresh) {
     }
 }
 
-double CrackTracker::tipAt(double time) const {
-    const auto& steps = tipSteps();
-    if (!steps.empty()) {
-        if (time < steps.front().first) return std::nan("");
-        const auto after =
-            std::upper_bound(steps.begin(), steps.end(), time,
-                             [](double t, const auto& entry) { return t < entry.first; });
-        return (after - 1)->second;
-    }
-    if (mHistory.empty() || time < mHistory.front().first) return std::nan("");
+namespace {
+/// The x of a (time, x) history at `time`: the entry at or before it (steps), or interpolated
+/// between entries (frames); the last after the end, NaN before the start.
+double historyAt(const std::vector<std::pair<double, double>>& history, double time,
+                 bool interpolate) {
+    if (history.empty() || time < history.front().first) return std::nan("");
     const auto after =
-        std::upper_bound(mHistory.begin(), mHistory.end(), time,
+        std::upper_bound(history.begin(), history.end(), time,
                          [](double t, const auto& entry) { return t < entry.first; });
-    if (after == mHistory.end()) return mHistory.back().second;
+    if (!interpolate || after == history.end()) return (after - 1)->second;
     const auto& [t0, x0] = *(after - 1);
     const auto& [t1, x1] = *after;
     return x0 + (x1 - x0) * (time - t0) / (t1 - t0);
+}
+} // namespace
+
+double CrackTracker::tipAt(double time) const {
+    const auto& steps = tipSteps();
+    if (!steps.empty()) return historyAt(steps, time, false);
+    return historyAt(mHistory, time, true);
+}
+
+double CrackTracker::endAt(double time, int side) const {
+    const auto& steps = side < 0 ? mUpSteps : mDownSteps;
+    if (!steps.empty()) return historyAt(steps, time, false);
+    return historyAt(side < 0 ? mUpHistory : mDownHistory, time, true);
+}
+
+double CrackTracker::distanceBehind(double x, double time) const {
+    if (std::isnan(mMinX0) || mDirection == 0) return std::nan("");
+    const int side = x < 0.5 * (mMinX0 + mMaxX0) ? -1 : 1;
+    const bool propagated = side < 0 ? mUpPropagated > 0.0 : mDownPropagated > 0.0;
+    // + 0.0: a fracture at the tip is 0, not -0, in summary.json.
+    if (!propagated) return mDirection * (tipAt(time) - x) + 0.0;
+    return side * (endAt(time, side) - x) + 0.0;
 }
 
 double CrackTracker::meanSpeed() const {
