@@ -378,6 +378,47 @@ def failure_profiles_2d(run, path):
 
 # Crack, flow, McClung & Gauer -----------------------------------------------------------------
 
+def along_ground(run, x0, x1):
+    """Length (m) of the scene's first `profile` terrain between x0 and x1, or None without one."""
+    for terrain in run.scene.get("terrain", []):
+        if terrain.get("shape") != "profile":
+            continue
+        pts = np.asarray(terrain.get("points", []), dtype=float)
+        if pts.ndim != 2 or len(pts) < 2:
+            return None
+        lo, hi = min(x0, x1), max(x0, x1)
+        # the profile goes on along its end segments past its ends
+        xs = np.concatenate(([min(lo, pts[0, 0])], pts[:, 0], [max(hi, pts[-1, 0])]))
+        ys = np.interp(xs, pts[:, 0], pts[:, 1], left=np.nan, right=np.nan)
+        if lo < pts[0, 0]:
+            slope = (pts[1, 1] - pts[0, 1]) / (pts[1, 0] - pts[0, 0])
+            ys[0] = pts[0, 1] + slope * (xs[0] - pts[0, 0])
+        if hi > pts[-1, 0]:
+            slope = (pts[-1, 1] - pts[-2, 1]) / (pts[-1, 0] - pts[-2, 0])
+            ys[-1] = pts[-1, 1] + slope * (xs[-1] - pts[-1, 0])
+        length = 0.0
+        for xa, ya, xb, yb in zip(xs[:-1], ys[:-1], xs[1:], ys[1:]):
+            a, b = max(lo, xa), min(hi, xb)
+            if b > a:
+                length += (b - a) * math.hypot(1.0, (yb - ya) / (xb - xa))
+        return length
+    return None
+
+
+def behind_along_slope(run, fracture):
+    """A slab fracture's distance behind the crack tip along the ground (the paper's measure),
+    from summary.json's distance along x: the tip is the crack's end on the fracture's side of
+    where the crack started (its first step-timed position). None without a distance, a
+    profile terrain or the crack's start."""
+    d = fracture.get("distance_behind_crack_tip")
+    steps = run.summary.get("crack_tip_steps") or []
+    if d is None or not steps:
+        return None
+    side = -1.0 if fracture["x"] < steps[0]["x"] else 1.0
+    length = along_ground(run, fracture["x"], fracture["x"] + side * d)
+    return None if length is None else math.copysign(length, d)
+
+
 def tip_steps(run):
     """The leading crack tip timed to the step (summary.json crack_tip_steps): times, x; or None
     for runs written before it existed."""
@@ -592,7 +633,8 @@ def slab_fracture_chart(run, path):
         fx = [f["x"] for f in fractures]
         a.plot(ft, fx, "s", ms=6, color="0.35", label="slab fracture (x, time)", clip_on=False)
         for f in fractures:
-            d = f.get("distance_behind_crack_tip")
+            d = behind_along_slope(run, f)
+            d = f.get("distance_behind_crack_tip") if d is None else d
             if d is not None:
                 a.annotate(f"{d:.2f} m", (f["time"], f["x"]), textcoords="offset points",
                            xytext=(4, -10), fontsize=7, color="0.3")
@@ -602,7 +644,7 @@ def slab_fracture_chart(run, path):
         middle = 0.5 * (low + high)
         a.set_ylim(middle - 0.5, middle + 0.5)
     a.set_xlabel("time (s)")
-    a.set_ylabel("x along the slope (m)")
+    a.set_ylabel("x (m)")
     a.set_title("slab fractures and the crack tip")
     a.legend(fontsize=8, loc="best")
     a.grid(alpha=0.3)
@@ -613,7 +655,7 @@ def slab_fracture_chart(run, path):
     b.set_ylim(-0.05, 1.05)
     b.set_yticks([0.0, 0.25, 0.5, 0.75, 1.0])
     b.set_yticklabels(["0 (weak-layer interface)", "0.25", "0.5", "0.75", "1 (top surface)"])
-    b.set_xlabel("x along the slope (m)")
+    b.set_xlabel("x (m)")
     b.set_ylabel("start depth, fraction of the slab thickness")
     b.set_title("where each slab fracture started")
     b.grid(alpha=0.3)
@@ -668,10 +710,12 @@ def slab_fracture_table(run):
         f"<tr><td class=num>{k + 1}</td><td class=num>{format_value(f['x'])}</td>"
         f"<td class=num>{format_value(f['z'])}</td><td class=num>{format_value(f['time'])}</td>"
         f"<td class=num>{format_value(f['start_depth_fraction'])}</td>"
-        f"<td class=num>{format_value(f.get('distance_behind_crack_tip'))}</td></tr>"
+        f"<td class=num>{format_value(f.get('distance_behind_crack_tip'))}</td>"
+        f"<td class=num>{format_value(behind_along_slope(run, f))}</td></tr>"
         for k, f in enumerate(run.slab_fractures))
     return ("<table>\n<tr><th>#</th><th>x (m)</th><th>z (m)</th><th>time (s)</th>"
-            "<th>start depth fraction</th><th>distance behind crack tip (m)</th></tr>\n"
+            "<th>start depth fraction</th><th>distance behind crack tip, along x (m)</th>"
+            "<th>along the slope (m)</th></tr>\n"
             f"{rows}\n</table>")
 
 
@@ -943,7 +987,8 @@ def slab_section(run, out, written):
         "dilation to half its initial value; a fracture goes through the slab where fractured "
         "particles fill 80 % of the slab's thickness (cells of dx along the bed, rows of dx "
         "normal to it). Left: position and time where each went through, with the weak-layer "
-        "crack tip (labels: distance behind the tip; the paper finds &lt; 1 m). Middle: the depth "
+        "crack tip (labels: distance behind the tip that passed it, along the ground profile; "
+        "along x on other terrain; the paper finds &lt; 1 m). Middle: the depth "
         "where each started, from the weak-layer interface (0) to the top surface (1): Gaume et "
         "al. (2019) find the crown fracture starting at the interface at the slope scale "
         "(Fig. 5) and from the top in the PST. Right: blocks of intact slab (face-connected "

@@ -456,6 +456,31 @@ def check_pulled_slab(binary, work):
     check(purple.sum() > 50, f"the block count is drawn ({purple.sum()} purple pixels)")
 
 
+def check_behind_along_slope():
+    """A slab fracture's distance behind the tip, from summary.json's distance along x to the
+    paper's along the ground: on a profile of a 45 degree and a flat segment, 1 m along x on 45
+    degrees is sqrt 2 m; the tip on the fracture's side of the crack's start; None without a
+    profile."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "render"))
+    import report  # noqa: E402
+
+    class Run:
+        scene = {"terrain": [{"shape": "profile", "points": [[0, 10], [10, 0], [20, 0]]}]}
+        summary = {"crack_tip_steps": [{"time": 0.2, "x": 12.0}, {"time": 0.3, "x": 8.0}]}
+
+    run = Run()
+    up = report.behind_along_slope(run, {"x": 6.0, "distance_behind_crack_tip": 1.0})
+    check(abs(up - math.sqrt(2.0)) < 1e-9, f"up-slope of the start, on 45 degrees ({up})")
+    across = report.behind_along_slope(run, {"x": 10.5, "distance_behind_crack_tip": 1.0})
+    check(abs(across - (0.5 * math.sqrt(2.0) + 0.5)) < 1e-9,
+          f"across the kink: 0.5 m on 45 degrees and 0.5 m flat ({across})")
+    down = report.behind_along_slope(run, {"x": 14.0, "distance_behind_crack_tip": -0.5})
+    check(abs(down + 0.5) < 1e-9, f"ahead of the down-slope tip on the flat ({down})")
+    run.scene = {"terrain": [{"shape": "plane"}]}
+    check(report.behind_along_slope(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
+          "no profile: no distance along the slope")
+
+
 def check_crack_origin():
     """The arrival chart's origin and front speeds on a made-up bed: a crack spreading in circles
     at 25 m/s from (5, 2) m from t = 0.2 s, and one cell at the far corner that yielded on its
@@ -485,6 +510,7 @@ def main():
     work = pathlib.Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     check_crack_origin()
+    check_behind_along_slope()
     check_pst(args.firn, work)
     check_pst_3d(args.firn, work)
     check_slide(args.firn, work)
