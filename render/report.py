@@ -208,18 +208,23 @@ def ground_profile(run):
     or None (planes and heightfields have no single line). The points are the user's: angle per
     segment at its midpoint, curvature from the change of angle between neighbouring segments
     (positive where the slope eases down-slope: concave, where the paper's crack speeds up)."""
+    pts = profile_points(run)
+    if pts is None or len(pts) < 3:
+        return None
+    dx, dy = np.diff(pts[:, 0]), np.diff(pts[:, 1])
+    angle = np.arctan2(-dy, dx)  # positive where the ground falls with x
+    length = np.hypot(dx, dy)
+    mid = pts[:-1, 0] + dx / 2
+    curvature = -np.diff(angle) / ((length[:-1] + length[1:]) / 2)
+    return mid, np.degrees(angle), pts[1:-1, 0], curvature
+
+
+def profile_points(run):
+    """The scene's first `profile` terrain's points as an (n, 2) array, or None."""
     for terrain in run.scene.get("terrain", []):
-        if terrain.get("shape") != "profile":
-            continue
-        pts = np.asarray(terrain.get("points", []), dtype=float)
-        if pts.ndim != 2 or len(pts) < 3:
-            return None
-        dx, dy = np.diff(pts[:, 0]), np.diff(pts[:, 1])
-        angle = np.arctan2(-dy, dx)  # positive where the ground falls with x
-        length = np.hypot(dx, dy)
-        mid = pts[:-1, 0] + dx / 2
-        curvature = -np.diff(angle) / ((length[:-1] + length[1:]) / 2)
-        return mid, np.degrees(angle), pts[1:-1, 0], curvature
+        if terrain.get("shape") == "profile":
+            pts = np.asarray(terrain.get("points", []), dtype=float)
+            return pts if pts.ndim == 2 and len(pts) >= 2 else None
     return None
 
 
@@ -380,29 +385,20 @@ def failure_profiles_2d(run, path):
 
 def along_ground(run, x0, x1):
     """Length (m) of the scene's first `profile` terrain between x0 and x1, or None without one."""
-    for terrain in run.scene.get("terrain", []):
-        if terrain.get("shape") != "profile":
-            continue
-        pts = np.asarray(terrain.get("points", []), dtype=float)
-        if pts.ndim != 2 or len(pts) < 2:
-            return None
-        lo, hi = min(x0, x1), max(x0, x1)
-        # the profile goes on along its end segments past its ends
-        xs = np.concatenate(([min(lo, pts[0, 0])], pts[:, 0], [max(hi, pts[-1, 0])]))
-        ys = np.interp(xs, pts[:, 0], pts[:, 1], left=np.nan, right=np.nan)
-        if lo < pts[0, 0]:
-            slope = (pts[1, 1] - pts[0, 1]) / (pts[1, 0] - pts[0, 0])
-            ys[0] = pts[0, 1] + slope * (xs[0] - pts[0, 0])
-        if hi > pts[-1, 0]:
-            slope = (pts[-1, 1] - pts[-2, 1]) / (pts[-1, 0] - pts[-2, 0])
-            ys[-1] = pts[-1, 1] + slope * (xs[-1] - pts[-1, 0])
-        length = 0.0
-        for xa, ya, xb, yb in zip(xs[:-1], ys[:-1], xs[1:], ys[1:]):
-            a, b = max(lo, xa), min(hi, xb)
-            if b > a:
-                length += (b - a) * math.hypot(1.0, (yb - ya) / (xb - xa))
-        return length
-    return None
+    pts = profile_points(run)
+    if pts is None:
+        return None
+    lo, hi = min(x0, x1), max(x0, x1)
+    # Past its ends the profile goes on along its end segments: their slopes hold out there.
+    xs = np.concatenate(([min(lo, pts[0, 0])], pts[:, 0], [max(hi, pts[-1, 0])]))
+    slopes = np.diff(pts[:, 1]) / np.diff(pts[:, 0])
+    slopes = np.concatenate(([slopes[0]], slopes, [slopes[-1]]))
+    length = 0.0
+    for xa, xb, slope in zip(xs[:-1], xs[1:], slopes):
+        a, b = max(lo, xa), min(hi, xb)
+        if b > a:
+            length += (b - a) * math.hypot(1.0, slope)
+    return length
 
 
 def behind_along_slope(run, fracture):
