@@ -476,6 +476,12 @@ TEST_CASE("firn check prints each material's values and where each came from",
     CHECK(shows("softening_length +0\\.06 m +table: the PST layer alpha was calibrated on .*"));
     // At the scene's dx (0.05) the crack band is thicker than 0.06 m: alpha as given, no line.
     CHECK(o.out.find("softening at this dx") == std::string::npos);
+    // The collapse fills the 0.1 m layer (6 dx = 0.3 m): with alpha 50 it dissipates
+    // (0.1 / 50) / (0.06 / 100) = 3.33 times the table's energy per area; alpha 167 would match.
+    CHECK(shows("collapse energy per area +3\\.33 x +body \"weak\" \\(0\\.1 m\\) against the "
+                "table's 0\\.06 m layer at softening 100: a band of 0\\.1 m .*"));
+    CHECK(shows("softening for the table's +167 +gives body \"weak\" the table's collapse "
+                "energy per area .*"));
 
     // Refined to dx 0.005 the band (6 cells, 0.03 m) is half the calibrated layer: alpha halves.
     const Outcome fine = runFirn(
@@ -484,6 +490,10 @@ TEST_CASE("firn check prints each material's values and where each came from",
     REQUIRE(fine.code == 0);
     CHECK(std::regex_search(fine.out, std::regex("\\n    softening at this dx +25 +crack band: "
                                                  "softening x 6 dx / softening_length\\n")));
+    // There the band is 6 cells (0.03 m) of the 0.1 m layer: (0.03 / 25) / (0.06 / 100) = 2.
+    CHECK(std::regex_search(fine.out, std::regex("\\n    collapse energy per area +2\\.00 x .*"
+                                                 "a band of 0\\.03 m .*\\n    softening for "
+                                                 "the table's +100 ")));
 }
 
 TEST_CASE("firn check says where each saw cut is and which saw makes it", "[cli]") {

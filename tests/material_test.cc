@@ -894,6 +894,19 @@ TEST_CASE("Weak layer softening: the crack band scales alpha with the cell size 
     CHECK(crackBandSoftening(100.0, 0.0, 0.0075) == 100.0); // no length: off
     CHECK(crackBandSoftening(100.0, 0.06, 0.0) == 100.0);   // a single point
 
+    // The coarse side, reported by `firn check` and not applied: a 0.2 m layer at dx 0.05 (its
+    // band: the whole layer, below 6 dx = 0.3 m) with the table's alpha 100 dissipates
+    // 0.2 / 0.06 = 3.33 times the calibrated layer's energy per area; alpha 333 matches it.
+    CHECK(collapseBandThickness(0.2, 0.05) == Approx(0.2).epsilon(1e-12));
+    CHECK(collapseBandThickness(0.2, 0.01) == Approx(0.06).epsilon(1e-12));
+    CHECK(collapseEnergyRatio(100.0, 0.06, 0.2, 0.05, 100.0, 0.06) ==
+          Approx(0.2 / 0.06).epsilon(1e-12));
+    CHECK(collapseEnergyRatio(100.0 * 0.2 / 0.06, 0.06, 0.2, 0.05, 100.0, 0.06) ==
+          Approx(1.0).epsilon(1e-12));
+    // Below the band's length the fine side already keeps the energy: ratio 1 at any dx.
+    CHECK(collapseEnergyRatio(100.0, 0.06, 0.2, 0.005, 100.0, 0.06) == Approx(1.0).epsilon(1e-12));
+    CHECK(collapseEnergyRatio(100.0, 0.06, 0.06, 0.03, 100.0, 0.06) == Approx(1.0).epsilon(1e-12));
+
     // alpha 1 (p0 20 kPa, K 667 kPa, xi 5: collapse at eta = asinh(0.03) / 5 = 0.006): a
     // squeeze 0.1 p0 past the tip is a plastic volume change of 0.003, short of collapse.
     MaterialDesc desc = roundDesc(MaterialModel::WeakLayer);

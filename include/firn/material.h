@@ -87,6 +87,20 @@ constexpr double kCrackBandCells = 6.0;
 /// softeningLength 0, dx 0 or a band at least that thick: alpha unchanged.
 double crackBandSoftening(double softening, double softeningLength, double dx);
 
+/// Thickness of the band a weak layer's collapse fills on a grid of spacing dx, m: kCrackBandCells
+/// cells, or the whole layer where the layer is thinner (a 0.2 m layer at dx 0.05: all of it).
+double collapseBandThickness(double layerThickness, double dx);
+
+/// Energy a weak layer's collapse dissipates per unit area on a grid of spacing dx, relative to
+/// the layer the table's alpha was calibrated on (`tableSoftening` on a `tableSofteningLength`
+/// layer that the collapse filled). The energy per volume scales with 1/alpha (eq. 4), so the
+/// ratio is (band / alpha at this dx) / (tableSofteningLength / tableSoftening), and `softening`
+/// x ratio gives the table's energy per area. The crack band's coarse side: a layer thicker than
+/// the calibrated one, on a grid that lets the collapse fill it, dissipates more per unit area
+/// (slope2d's 0.2 m layer with alpha 100: 3.3 times; README "Slope-scale runs").
+double collapseEnergyRatio(double softening, double softeningLength, double layerThickness,
+                           double dx, double tableSoftening, double tableSofteningLength);
+
 /// A material as the solver uses it: model, density, elasticity and plasticity parameters.
 struct Material {
     MaterialModel model = MaterialModel::Elastic;

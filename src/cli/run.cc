@@ -5,6 +5,7 @@
 #include <firn/resources.h>
 #include <firn/run.h>
 #include <firn/slab_fracture.h>
+#include <firn/snow_parameters.h>
 #include <firn/solver.h>
 #include <firn/terrain_export.h>
 
@@ -615,6 +616,53 @@ std::string describeMaterial(const MaterialDesc& material, double dx) {
     return out.str();
 }
 
+/// For each weak-layer body of `material` (index m) that is a layer: the energy its collapse will
+/// dissipate per unit area against the layer the table's alpha was calibrated on, and the
+/// softening that would match it (the crack band's coarse side, which Firn does not apply by
+/// itself: it would change what an explicit `softening` means).
+std::string describeCollapseEnergy(const SceneDesc& scene, std::size_t m) {
+    const MaterialDesc& material = scene.materials[m];
+    if (material.model != MaterialModel::WeakLayer || material.softening <= 0.0) return {};
+    const SnowParameterTable table = weakLayerTable(material.density);
+    const double dx = scene.grid.dx;
+    std::ostringstream out;
+    out << std::setprecision(3);
+    for (const BodyDesc& body : scene.bodies) {
+        if (body.materialIndex != int(m) || body.shape != BodyShape::Layer) continue;
+        double thin = body.thickness, thick = body.thickness;
+        if (!body.thicknessProfile.empty()) {
+            thin = thick = body.thicknessProfile.front()[1];
+            for (const auto& point : body.thicknessProfile) {
+                thin = std::min(thin, point[1]);
+                thick = std::max(thick, point[1]);
+            }
+        }
+        auto ratio = [&](double thickness) {
+            return collapseEnergyRatio(material.softening, material.softeningLength, thickness, dx,
+                                       table.softening.value, table.softeningLength.value);
+        };
+        std::ostringstream value;
+        value << std::fixed << std::setprecision(2) << ratio(thin);
+        if (thick != thin) value << "-" << ratio(thick);
+        value << " x";
+        const std::string name = body.name.empty() ? std::string("layer") : body.name;
+        out << "    " << std::left << std::setw(30) << "collapse energy per area" << std::setw(16)
+            << value.str() << "body \"" << name << "\" (" << thin;
+        if (thick != thin) out << "-" << thick;
+        out << " m) against the table's " << table.softeningLength.value << " m layer at softening "
+            << table.softening.value << ": a band of " << collapseBandThickness(thin, dx);
+        if (thick != thin) out << "-" << collapseBandThickness(thick, dx);
+        out << " m (the layer, at most " << kCrackBandCells << " dx)\n";
+        // Beyond 5 %: say which softening gives the table's energy per area (constant thickness).
+        if (thick == thin && std::abs(ratio(thin) - 1.0) > 0.05)
+            out << "    " << std::left << std::setw(30) << "softening for the table's"
+                << std::setw(16) << std::llround(material.softening * ratio(thin))
+                << "gives body \"" << name
+                << "\" the table's collapse energy per area (README Snow, crack band)\n";
+    }
+    return out.str();
+}
+
 /// The DEMs, the local frame and the rasters of a scene on real terrain; empty for the others.
 std::string describeTerrain(const SceneDesc& scene) {
     std::ostringstream out;
@@ -652,8 +700,9 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
             out << ", blend " << scene.grid.flipBlend;
     }
     out << "\n";
-    for (const MaterialDesc& material : scene.materials)
-        out << describeMaterial(material, scene.grid.dx);
+    for (std::size_t m = 0; m < scene.materials.size(); ++m)
+        out << describeMaterial(scene.materials[m], scene.grid.dx)
+            << describeCollapseEnergy(scene, m);
     out << describeTerrain(scene);
     out << "  memory: about " << formatBytes(memory.bytes) << " for about "
         << std::llround(memory.particles) << " particles; "

@@ -36,6 +36,17 @@ double crackBandSoftening(double softening, double softeningLength, double dx) {
     return softening * std::min(1.0, kCrackBandCells * dx / softeningLength);
 }
 
+double collapseBandThickness(double layerThickness, double dx) {
+    return std::min(kCrackBandCells * dx, layerThickness);
+}
+
+double collapseEnergyRatio(double softening, double softeningLength, double layerThickness,
+                           double dx, double tableSoftening, double tableSofteningLength) {
+    const double alpha = crackBandSoftening(softening, softeningLength, dx);
+    return collapseBandThickness(layerThickness, dx) / alpha * tableSoftening /
+           tableSofteningLength;
+}
+
 Material Material::fromDesc(const MaterialDesc& desc, int dim, double dx) {
     Material m;
     m.model = desc.model;
