@@ -3,7 +3,7 @@
 "en-echelon" fractures, < 1 m behind the weak-layer crack tip in the steep part of the slope).
 
     /usr/bin/python3 bench/slab_fracture_study.py [--variants NAME ...] [--firn build/firn]
-        [--threads N] [--end-time 0.45] [--out DIR]
+        [--threads N] [--end-time 0.45] [--out DIR] [--seeds S ...]
 
 Runs the scene to --end-time (200 frames per second, eta volumes only) for each variant below
 and reports, from summary.json and the eta volumes (read with pyopenvdb):
@@ -21,7 +21,8 @@ and reports, from summary.json and the eta volumes (read with pyopenvdb):
   layer, 1: at the surface), where the tip was then and how long after the tip had passed the
   fracture's position it went through.
 Writes results.csv into bench/results/slab-fracture/ (or --out); a run of some variants replaces
-their rows and keeps the others.
+their rows and keeps the others. With --seeds each variant runs once per seed (`simulation.seed`:
+the particles' jitter), its rows named VARIANT@seedS: how much of a row is the seeding's scatter.
 """
 import argparse
 import csv
@@ -91,6 +92,10 @@ VARIANTS = {
                          "the shipped weak layer with the table's slab (xi 0.5)"),
     "weak94-slab-xi5": (0.05, ["material.weak.density=94"],
                         "the shipped scene with a 94 kg/m^3 weak layer"),
+    "weak97-slab-xi5": (0.05, ["material.weak.density=97"],
+                        "the shipped scene with a 97 kg/m^3 weak layer"),
+    "slab-xi2-shipped": (0.05, ["material.slab.hardening=2"],
+                         "the shipped scene with a less brittle slab, xi 2"),
     "fine": (0.025, ["material.weak.softening=250"],
              "dx 0.025: the shipped scene, alpha for its 6-cell (0.15 m) band"),
     "fine-before-alpha250": (0.025, before(["material.weak.softening=250"]),
@@ -191,6 +196,8 @@ def main():
     parser.add_argument("--threads", type=int)
     parser.add_argument("--end-time", type=float, default=0.45)
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "slab-fracture"))
+    parser.add_argument("--seeds", nargs="+", type=int,
+                        help="run each variant once per seed (rows VARIANT@seedS)")
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     results = os.path.join(args.out, "results.csv")
@@ -201,8 +208,13 @@ def main():
     rows = []
     points = profile_points()
     with tempfile.TemporaryDirectory() as work:
-        for name in args.variants:
-            dx, overrides, note = VARIANTS[name]
+        runs = [(name, name, []) for name in args.variants]
+        if args.seeds:
+            runs = [(f"{name}@seed{seed}", name, [f"simulation.seed={seed}"])
+                    for name in args.variants for seed in args.seeds]
+        for name, variant, seed_override in runs:
+            dx, overrides, note = VARIANTS[variant]
+            overrides = overrides + seed_override
             out = os.path.join(work, name)
             summary, seconds = run(args.firn, dx, overrides, out, args.end_time, args.threads)
             tips = summary["crack_tip_steps"]
@@ -239,7 +251,8 @@ def main():
             rows.append(row)
             print(row, flush=True)
     fresh = {row["variant"]: row for row in rows}
-    ordered = [fresh.get(name) or kept[name] for name in VARIANTS if name in fresh or name in kept]
+    names = list(VARIANTS) + sorted(set(fresh) | set(kept) - set(VARIANTS))
+    ordered = [fresh.get(name) or kept[name] for name in names if name in fresh or name in kept]
     with open(results, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
