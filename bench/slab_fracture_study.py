@@ -41,8 +41,15 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FRAME_RATE = 200.0
 SLAB_P0 = 22440.0  # the table's slab initial_p0 at 250 kg/m^3 (firn check scenes/slope2d.toml)
 
-# The scene until 2026-12-04: an 88 kg/m^3 weak layer with the table's alpha, the table's slab.
-BEFORE = ["material.weak.density=88", "material.weak.softening=100", "material.slab.hardening=0.5"]
+# The trigger until 2026-12-04 (eleventh session): the block dropped 0.3 m onto the slab, landing
+# at t = 0.2 s, its snow weak (p0 2 kPa) so that it shattered.
+DROPPED = ["body.block.center=[13.0, 4.67]", "material.block.initial_p0=2000"]
+# The snowman at rest as the first seed studies of it placed it (2 mm from the shipped centre).
+EARLY_REST = ["body.block.center=[12.848, 4.441]"]
+# The scene until 2026-12-04: an 88 kg/m^3 weak layer with the table's alpha, the table's slab,
+# the dropped block.
+BEFORE = DROPPED + ["material.weak.density=88", "material.weak.softening=100",
+                    "material.slab.hardening=0.5"]
 WEAKER_SLAB = {0.3: ["material.slab.cohesion_ratio=0.3", f"material.slab.initial_p0={SLAB_P0}"],
                0.2: ["material.slab.cohesion_ratio=0.2", f"material.slab.initial_p0={SLAB_P0}"]}
 
@@ -52,10 +59,21 @@ def before(*overrides):
     return BEFORE + [o for group in overrides for o in group]
 
 
+def resting_block(radius):
+    """The block resting on the slab (half a cell clear of it) at the shipped block's point of
+    the slope (slab surface at x 12.50 m, local slope 34 degrees), with this radius."""
+    gap = radius + 0.025
+    return [f"body.block.radius={radius}",
+            f"body.block.center=[{12.497 + 0.559 * gap:.3f}, {3.924 + 0.829 * gap:.3f}]"]
+
+
 # name: (dx, overrides of scenes/slope2d.toml, what it tests)
 VARIANTS = {
     "shipped": (0.05, [], "the shipped scene: the PST's weak layer (100 kg/m^3) with alpha 333 "
-                "(its fracture energy per area in a 0.2 m band), a brittle slab (xi 5)"),
+                "(its fracture energy per area in a 0.2 m band), a brittle slab (xi 5), the "
+                "snowman standing on the slab"),
+    "dropped": (0.05, DROPPED, "the shipped scene until 2026-12-04 (eleventh session): the "
+                "block dropped 0.3 m onto the slab"),
     "before": (0.05, before(), "until 2026-12-04: weak layer 88 kg/m^3, the table's alpha 100 "
                "and slab (xi 0.5, sigma_t 10.1 kPa)"),
     "alpha333": (0.05, before(["material.weak.softening=333"]),
@@ -88,15 +106,24 @@ VARIANTS = {
     "alpha333-slab-xi5-beta0.2": (0.05, before(["material.weak.softening=333",
                                                 "material.slab.hardening=5"], WEAKER_SLAB[0.2]),
                                   "alpha 333, slab xi 5 and beta 0.2 (sigma_t 6.4 kPa)"),
-    "weak100-alpha333": (0.05, ["material.slab.hardening=0.5"],
+    "weak100-alpha333": (0.05, DROPPED + ["material.slab.hardening=0.5"],
                          "the shipped weak layer with the table's slab (xi 0.5)"),
-    "weak94-slab-xi5": (0.05, ["material.weak.density=94"],
+    "weak94-slab-xi5": (0.05, DROPPED + ["material.weak.density=94"],
                         "the shipped scene with a 94 kg/m^3 weak layer"),
-    "weak97-slab-xi5": (0.05, ["material.weak.density=97"],
+    "weak97-slab-xi5": (0.05, DROPPED + ["material.weak.density=97"],
                         "the shipped scene with a 97 kg/m^3 weak layer"),
-    "slab-xi2-shipped": (0.05, ["material.slab.hardening=2"],
+    "slab-xi2-shipped": (0.05, DROPPED + ["material.slab.hardening=2"],
                          "the shipped scene with a less brittle slab, xi 2"),
-    "fine": (0.025, ["material.weak.softening=250"],
+    "snowman-p0-2k": (0.05, EARLY_REST + ["material.block.initial_p0=2000"],
+                      "the snowman with the dropped block's weak snow (p0 2 kPa): it yields "
+                      "under its own weight at t = 0"),
+    "snowman-r0.45": (0.05, resting_block(0.45), "a smaller snowman, radius 0.45 m"),
+    "snowman-r0.35": (0.05, resting_block(0.35), "a smaller snowman, radius 0.35 m"),
+    "snowman-weak106": (0.05, EARLY_REST + ["material.weak.density=106"],
+                        "the snowman on a 106 kg/m^3 weak layer"),
+    "snowman-weak110": (0.05, EARLY_REST + ["material.weak.density=110"],
+                        "the snowman on a 110 kg/m^3 weak layer"),
+    "fine": (0.025, DROPPED + ["material.weak.softening=250"],
              "dx 0.025: the shipped scene, alpha for its 6-cell (0.15 m) band"),
     "fine-before-alpha250": (0.025, before(["material.weak.softening=250"]),
                              "dx 0.025: the scene before, alpha for a 6-cell (0.15 m) band"),
@@ -251,7 +278,7 @@ def main():
             rows.append(row)
             print(row, flush=True)
     fresh = {row["variant"]: row for row in rows}
-    names = list(VARIANTS) + sorted(set(fresh) | set(kept) - set(VARIANTS))
+    names = list(VARIANTS) + sorted((set(fresh) | set(kept)) - set(VARIANTS))
     ordered = [fresh.get(name) or kept[name] for name in names if name in fresh or name in kept]
     with open(results, "w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))

@@ -582,6 +582,17 @@ def crack_chart(run, path):
         if mids.size:
             b.plot(mids, speeds, ".", ms=3, color="#ff7f0e",
                    label="over 0.5 m of advance (timed to the step)")
+        if mids.size >= 5:
+            # A zone that fails at once (a trigger's static overload at t = 0, a layer loaded to
+            # its strength) registers in a step or two: speeds of hundreds of m/s that are not
+            # propagation and would flatten the chart. The axis stops at 3 x the median window;
+            # what lies beyond is drawn on its edge.
+            cap = 3.0 * float(np.median(speeds))
+            beyond = speeds > cap
+            if beyond.any():
+                b.plot(mids[beyond], np.full(int(beyond.sum()), cap), "^", ms=5, color="#ff7f0e",
+                       label=f"beyond {cap:.0f} m/s ({int(beyond.sum())}: a zone failing at once)")
+                b.set_ylim(0.0, 1.05 * cap)
     for k, f in enumerate(run.slab_fractures):
         b.axvspan(f["x"] - run.dx / 2, f["x"] + run.dx / 2, color=SLAB_FRACTURE_COLOUR,
                   alpha=0.6, lw=0, label="slab fracture" if k == 0 else None)

@@ -21,9 +21,9 @@ using namespace firn::test;
 
 namespace {
 
-/// The default scene (a slab on a weak layer on the 2D slope, a block dropped on it) at dx 0.1
-/// for 0.5 s: the block lands at 0.2 s and the crack runs, so the crack and slab trackers carry
-/// state across the checkpoints; 25 frames, a few seconds.
+/// The default scene (a slab on a weak layer on the 2D slope, a snowman standing on it) at dx 0.1
+/// for 0.5 s: the snowman's load fails the layer at t = 0 and the crack runs, so the crack and
+/// slab trackers carry state across the checkpoints; 25 frames, a few seconds.
 const std::vector<std::string> kSceneArgs = {FIRN_SOURCE_DIR "/scenes/default.toml",
                                              "--set",
                                              "grid.dx=0.1",

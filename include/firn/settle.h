@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace firn {
 
@@ -37,6 +38,9 @@ struct SettleParams {
     double tolerance = 1e-6; ///< kinetic-energy peak / elastic energy that counts as at rest
     /// Polled every step: true ends settling early (a signal asked the run to stop).
     std::function<bool()> interrupted;
+    /// The materials' names, by index, for the overload message ("519 of weak"); a material
+    /// without one is named by its number in the scene ("material 2").
+    std::vector<std::string> materialNames;
 };
 
 /// Dynamic relaxation of the world under full gravity (Cundall's kinetic damping: every time

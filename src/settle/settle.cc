@@ -73,7 +73,7 @@ std::string formatBox(const Vec3f& lo, const Vec3f& hi, int dim) {
 /// Applies plasticity to the settled stress and reports the particles that yield: there the
 /// static load exceeds the strength. Their failed flag stays: they fail at t = 0, as they would
 /// in the first step.
-void reportOverload(World& w, SettleReport& report) {
+void reportOverload(World& w, const std::vector<std::string>& names, SettleReport& report) {
     ParticleSet& ps = w.particles;
     for (PlasticState& s : ps.plastic) s.flags &= ~kFlagFailed;
     applyPlasticity(w, w.time);
@@ -94,7 +94,11 @@ void reportOverload(World& w, SettleReport& report) {
     bool first = true;
     for (std::size_t m = 0; m < perMaterial.size(); ++m) {
         if (!perMaterial[m]) continue;
-        why << (first ? "" : ", ") << perMaterial[m] << " of material " << m + 1;
+        why << (first ? "" : ", ") << perMaterial[m] << " of ";
+        if (m < names.size() && !names[m].empty())
+            why << names[m];
+        else
+            why << "material " << m + 1;
         first = false;
     }
     why << "), within " << formatBox(report.overloadedMin, report.overloadedMax, w.dim);
@@ -154,7 +158,7 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     // A slab that fractured (or a weak layer that cracked) while settling did so at t = 0.
     for (PlasticState& s : w.particles.plastic) s.fractureTime = 0.f;
     w.maxSpeed = 0.f;
-    reportOverload(w, report);
+    reportOverload(w, params.materialNames, report);
     if (!report.converged && !report.interrupted) {
         std::ostringstream why;
         why << "not at rest after settle_max_time = " << params.maxTime << " s (last kinetic "

@@ -535,9 +535,10 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
         // Bodies seeded moving are not at rest: they wait outside while the rest settles.
         ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
         w.particles.bucketByLeaf();
-        w.settle =
-            settleUnderGravity(w, SettleParams{scene.simulation.settleMaxTime,
-                                               scene.simulation.settleTolerance, interrupted});
+        SettleParams params{
+            scene.simulation.settleMaxTime, scene.simulation.settleTolerance, interrupted, {}};
+        for (const MaterialDesc& m : scene.materials) params.materialNames.push_back(m.name);
+        w.settle = settleUnderGravity(w, params);
         w.particles.append(std::move(moving));
     }
     // An instant saw cuts the snowpack at rest (after settling): its cut's particles go now.
