@@ -26,8 +26,12 @@ struct SettleReport {
     int kineticResets = 0;      ///< times the velocities were zeroed at a kinetic-energy peak
     double lastPeakRatio = 0.0; ///< last kinetic-energy peak / elastic energy
     std::size_t overloaded = 0; ///< particles whose settled static stress exceeds their strength
-    Eigen::Vector3f overloadedMin = Eigen::Vector3f::Zero(); ///< their bounding box, m
-    Eigen::Vector3f overloadedMax = Eigen::Vector3f::Zero();
+    /// Their bounding box, m, in the scene's coordinates (the local frame's origin added, as
+    /// every output does: a DEM scene's box is in the DEM's coordinates).
+    Eigen::Vector3d overloadedMin = Eigen::Vector3d::Zero();
+    Eigen::Vector3d overloadedMax = Eigen::Vector3d::Zero();
+    /// Of them, how many of each material, by the material's index in the scene.
+    std::vector<std::size_t> overloadedByMaterial;
     /// One sentence on what happened, naming where the static load exceeds the strength.
     std::string message;
 };

@@ -34,6 +34,9 @@ void saveWorld(ByteWriter& out, const World& w) {
     out.value(s.time), out.value(s.steps), out.value(s.wallSeconds), out.value(s.kineticResets);
     out.value(s.lastPeakRatio), out.value(std::uint64_t(s.overloaded));
     out.value(s.overloadedMin), out.value(s.overloadedMax);
+    std::vector<std::uint64_t> perMaterial(s.overloadedByMaterial.begin(),
+                                           s.overloadedByMaterial.end());
+    out.array(perMaterial);
     out.string(s.message);
     std::vector<std::uint64_t> perBody(w.particlesPerBody.begin(), w.particlesPerBody.end());
     out.array(perBody);
@@ -58,6 +61,9 @@ void loadWorld(ByteReader& in, World& w) {
     in.value(s.lastPeakRatio);
     s.overloaded = std::size_t(in.value<std::uint64_t>());
     in.value(s.overloadedMin), in.value(s.overloadedMax);
+    std::vector<std::uint64_t> perMaterial;
+    in.array(perMaterial);
+    s.overloadedByMaterial.assign(perMaterial.begin(), perMaterial.end());
     in.string(s.message);
     std::vector<std::uint64_t> perBody;
     in.array(perBody);

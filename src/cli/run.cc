@@ -197,6 +197,27 @@ double inScene(const World& w, int axis, double local) {
     return w.origin[axis] == 0.0 ? local : local + w.origin[axis];
 }
 
+/// Where the settled static load exceeds the strength, as keys a script reads without parsing
+/// settle_message: the box (scene coordinates) and the count of each material by its name.
+void writeSettleOverload(JsonObject& j, const SettleReport& settle, const World& w,
+                         const std::vector<MaterialDesc>& materials) {
+    const char* axes[] = {"x", "y", "z"};
+    for (int a = 0; a < w.dim; ++a) {
+        j.set(std::string("settle_overloaded_") + axes[a] + "_min", settle.overloadedMin[a]);
+        j.set(std::string("settle_overloaded_") + axes[a] + "_max", settle.overloadedMax[a]);
+    }
+    std::vector<JsonObject> byMaterial;
+    for (std::size_t m = 0; m < settle.overloadedByMaterial.size(); ++m) {
+        if (settle.overloadedByMaterial[m] == 0) continue;
+        JsonObject o;
+        const bool named = m < materials.size() && !materials[m].name.empty();
+        o.set("material", named ? materials[m].name : "material " + std::to_string(m + 1));
+        o.set("particles", static_cast<long long>(settle.overloadedByMaterial[m]));
+        byMaterial.push_back(o);
+    }
+    j.set("settle_overloaded_by_material", byMaterial);
+}
+
 /// Writes frame k (its diagnostics `d` already computed): caches and the metrics row.
 void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWatch* watch) {
     World& w = s.world;
@@ -400,6 +421,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
         j.set("settle_steps", settle.steps);
         j.set("settle_wall_seconds", settle.wallSeconds);
         j.set("settle_overloaded_particles", static_cast<long long>(settle.overloaded));
+        if (settle.overloaded > 0) writeSettleOverload(j, settle, w, s.scene.materials);
         if (!settle.message.empty()) j.set("settle_message", settle.message);
     }
     j.set("status", r.status);

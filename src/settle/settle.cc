@@ -61,7 +61,7 @@ private:
     float mGravityRamp;
 };
 
-std::string formatBox(const Vec3f& lo, const Vec3f& hi, int dim) {
+std::string formatBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int dim) {
     std::ostringstream out;
     out.precision(3);
     const char* axes = "xyz";
@@ -77,24 +77,25 @@ void reportOverload(World& w, const std::vector<std::string>& names, SettleRepor
     ParticleSet& ps = w.particles;
     for (PlasticState& s : ps.plastic) s.flags &= ~kFlagFailed;
     applyPlasticity(w, w.time);
-    std::vector<std::size_t> perMaterial(w.materials.size(), 0);
+    report.overloadedByMaterial.assign(w.materials.size(), 0);
+    const Eigen::Vector3d origin(w.origin[0], w.origin[1], w.origin[2]);
     for (std::size_t i = 0; i < ps.size(); ++i) {
         if (!(ps.plastic[i].flags & kFlagFailed) || (ps.plastic[i].flags & kFlagInCut)) continue;
-        const Vec3f& x = ps.x[i];
+        const Eigen::Vector3d x = ps.x[i].cast<double>() + origin; // scene coordinates
         if (report.overloaded == 0) report.overloadedMin = report.overloadedMax = x;
         report.overloadedMin = report.overloadedMin.cwiseMin(x);
         report.overloadedMax = report.overloadedMax.cwiseMax(x);
         ++report.overloaded;
-        ++perMaterial[std::size_t(ps.material[i])];
+        ++report.overloadedByMaterial[std::size_t(ps.material[i])];
     }
     if (report.overloaded == 0) return;
     std::ostringstream why;
     why << report.overloaded << " particles carry a static load beyond their strength and yield at "
         << "t = 0 (";
     bool first = true;
-    for (std::size_t m = 0; m < perMaterial.size(); ++m) {
-        if (!perMaterial[m]) continue;
-        why << (first ? "" : ", ") << perMaterial[m] << " of ";
+    for (std::size_t m = 0; m < report.overloadedByMaterial.size(); ++m) {
+        if (!report.overloadedByMaterial[m]) continue;
+        why << (first ? "" : ", ") << report.overloadedByMaterial[m] << " of ";
         if (m < names.size() && !names[m].empty())
             why << names[m];
         else

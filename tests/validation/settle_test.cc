@@ -292,6 +292,21 @@ TEST_CASE("Settling reports a static load beyond the strength, and where", "[set
     CHECK(w->settle.overloaded > 100);
     CHECK(w->settle.message.find("static load beyond their strength") != std::string::npos);
     CHECK(w->settle.message.find(" of weak)") != std::string::npos); // named as in the scene
-    CHECK(w->settle.overloadedMin[1] >= -0.01f);
-    CHECK(w->settle.overloadedMax[1] <= 0.1f); // in the weak layer, not the slab
+    CHECK(w->settle.overloadedMin[1] >= -0.01);
+    CHECK(w->settle.overloadedMax[1] <= 0.1); // in the weak layer, not the slab
+    // Counted per material: all of them in the weak layer (material 2) or the slab over it.
+    REQUIRE(w->settle.overloadedByMaterial.size() == 2);
+    CHECK(w->settle.overloadedByMaterial[1] > 100);
+    CHECK(w->settle.overloadedByMaterial[0] + w->settle.overloadedByMaterial[1] ==
+          w->settle.overloaded);
+
+    // A scene in a local frame (a DEM's, SceneDesc::frameOrigin) reports the box in the scene's
+    // coordinates, as every other output does: the same run, shifted by the origin.
+    SceneDesc shifted = test::sceneFromText(text);
+    shifted.frameOrigin = {2.6e6, 1500.0, 0.0};
+    auto far = buildWorld(shifted);
+    CHECK(far->settle.overloaded == w->settle.overloaded);
+    CHECK(far->settle.overloadedMin[0] == w->settle.overloadedMin[0] + 2.6e6);
+    CHECK(far->settle.overloadedMax[1] == w->settle.overloadedMax[1] + 1500.0);
+    CHECK(far->settle.message.find("x in [2.6e+06") != std::string::npos);
 }
