@@ -249,6 +249,11 @@ TEST_CASE("A changed parameter moves the right figures and frames, exit code 5",
     CHECK_FALSE(figure(r, "metrics", "mass").moved);
     CHECK_FALSE(figure(r, "summary", "wall_seconds").checked);
     CHECK_FALSE(figure(r, "summary", "wall_seconds").moved);
+    // The box's edge settles under its own weight beyond its strength in both runs, by a count
+    // per material that the friction changes: listed, compared as settle_overloaded_particles.
+    CHECK(figure(r, "summary", "settle_overloaded_particles").checked);
+    CHECK_FALSE(figure(r, "summary", "settle_overloaded_by_material").identical);
+    CHECK_FALSE(figure(r, "summary", "settle_overloaded_by_material").checked);
     CHECK(figure(r, "frames", "pixels").moved);
 
     // Same framing for both; the last frame differs, and its difference image is black exactly
