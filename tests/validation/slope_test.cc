@@ -88,45 +88,32 @@ std::vector<std::pair<double, double>> crackTipSteps(const std::string& summary)
     return tip;
 }
 
-/// Where a remote-triggering run's weak layer lies and when and where its trigger lands.
+/// Where a remote-triggering run's weak layer lies and where its trigger, a snowman standing on
+/// the slab, touches the slab.
 struct RemoteTrigger {
     double layerTopX, layerEndX; ///< the weak layer's up-slope and down-slope ends, m
-    /// The trigger loads the slab then and there (s, m): a snowman standing on the slab at
-    /// t = 0, where it touches the slab; a dropped ball when and where it lands.
-    double triggerTime, triggerX;
+    double triggerX;             ///< where the snowman touches the slab, m
+    /// How far from triggerX along x the settled static load may exceed the strength, m: under
+    /// the snowman and where its load bends the slab, not away from it.
+    double overloadReach;
     double dx; ///< grid spacing, m
 };
 
 /// What remote triggering must show (validation.md V9; Gaume et al. 2019, sec. 3): the slope
-/// holds until the trigger loads it and away from it, then a crack starts under it, runs to both
+/// holds away from the trigger, a crack starts under it at t = 0 and runs to both
 /// ends of the weak layer (leading up-slope at a slope-scale speed), the slab fractures behind its
 /// tip and starts to move off its bed; mass is conserved.
 void checkRemoteTriggering(const RunFiles& run, const RemoteTrigger& t) {
     const auto& [summary, rows] = run;
     REQUIRE(rows.size() > 10);
-    // A trigger at rest (a snowman, t = 0) is its static load beyond the weak layer's strength:
-    // the settling stage reports it, and nothing away from it, so all it reports lies within
-    // 2 m of where the snowman touches the slab (measured: x 10.9-13.3 m for the snowman at
-    // 12.5 m, the layer under it and the slab bending at its up-slope edge).
-    if (t.triggerTime == 0.0) {
-        REQUIRE(summaryNumber(summary, "settle_overloaded_particles") > 0);
-        const double from = summaryNumber(summary, "settle_overloaded_x_min");
-        const double to = summaryNumber(summary, "settle_overloaded_x_max");
-        INFO("overloaded at settling within x " << from << " to " << to << " m");
-        CHECK(from > t.triggerX - 2.0);
-        CHECK(to < t.triggerX + 2.0);
-    }
-    // Before a dropped trigger lands the slope holds: whatever yields stays within 1 m, and the
-    // slab is at rest (the settling stage left it so: 1 mm/s is 1e-4 of the speeds of the
-    // release).
-    for (const auto& row : rows) {
-        if (row.at("time") > t.triggerTime - 0.02) break;
-        const double extent = row.at("crack_tip_max_x") - row.at("crack_tip_min_x");
-        INFO("t = " << row.at("time") << " s: crack extent " << extent << " m, slab speed "
-                    << row.at("slab_speed") << " m/s");
-        CHECK(!(extent > 1.0));
-        CHECK(row.at("slab_speed") < 1e-3);
-    }
+    // The snowman's static load exceeds the weak layer's strength under it: the settling stage
+    // reports it, and nothing away from it (within overloadReach of where it touches the slab).
+    REQUIRE(summaryNumber(summary, "settle_overloaded_particles") > 0);
+    const double from = summaryNumber(summary, "settle_overloaded_x_min");
+    const double to = summaryNumber(summary, "settle_overloaded_x_max");
+    INFO("overloaded at settling within x " << from << " to " << to << " m");
+    CHECK(from > t.triggerX - t.overloadReach);
+    CHECK(to < t.triggerX + t.overloadReach);
     // Remote triggering: from the block the crack reaches the top of the weak layer and its
     // down-slope end (one cell of tolerance: the extent is in cell centres).
     const auto& last = rows.back();
@@ -142,14 +129,15 @@ void checkRemoteTriggering(const RunFiles& run, const RemoteTrigger& t) {
     INFO("mean crack speed " << speed << " m/s");
     CHECK(speed > 20.0);
     CHECK(speed < 1.5 * 146.0);
-    // The tip timed to the step starts under the block after it lands (within 1 m of it) and
-    // moves only up-slope, step after step, to the top.
+    // The tip timed to the step starts at t = 0 at the up-slope end of the failed zone under the
+    // snowman (within 1 m of where it touches the slab) and moves only up-slope, step after
+    // step, to the top.
     const std::vector<std::pair<double, double>> tip = crackTipSteps(summary);
     REQUIRE(tip.size() > 10);
     INFO("step-timed tip from x = " << tip.front().second << " m at " << tip.front().first
                                     << " s to " << tip.back().second << " m at " << tip.back().first
                                     << " s");
-    CHECK(tip.front().first > t.triggerTime - 0.02);
+    CHECK(tip.front().first == 0.0);
     CHECK(std::abs(tip.front().second - t.triggerX) < 1.0);
     CHECK(tip.back().second < t.layerTopX + t.dx);
     // Behind the tip the layer collapses (its cohesion gone, p0 = 0): by the end somewhere, and
@@ -166,13 +154,9 @@ void checkRemoteTriggering(const RunFiles& run, const RemoteTrigger& t) {
         CHECK(tip[k].first > tip[k - 1].first);
         CHECK(tip[k].second < tip[k - 1].second);
     }
-    // Slab fractures: at least one, after the block has landed, and at least one behind the tip
-    // (timed to the step; the first ones are at the block's edges, where its impact bends the
-    // slab).
+    // Slab fractures: at least one, and at least one behind the tip (timed to the step; the
+    // first ones are at the snowman's edges, where its load bends the slab).
     CHECK(summaryNumber(summary, "slab_fracture_count") >= 1);
-    const double firstFracture = summaryNumber(summary, "first_slab_fracture_time");
-    CHECK(firstFracture > t.triggerTime - 0.02);
-    CHECK(firstFracture < rows.back().at("time"));
     const std::regex behind("\"distance_behind_crack_tip\": ([-0-9.eE+]+)");
     double mostBehind = -1e9;
     for (auto it = std::sregex_iterator(summary.begin(), summary.end(), behind);
@@ -194,8 +178,10 @@ TEST_CASE("V9 slope: a snowman triggers a crack that runs up-slope to the top, a
         loadScene(kSlope, {"simulation.end_time=0.4", "body.base.x_range=[1.5, 19.0]",
                            "body.weak.x_range=[2.0, 17.0]", "body.slab.x_range=[2.0, 17.0]",
                            "output.particles=false", "output.volumes=[]"});
-    // The snowman stands on the slab at x = 12.5 m; its static load fails the layer at t = 0.
-    const RemoteTrigger trigger{2.0, 17.0, 0.0, 12.5, 0.05};
+    // The snowman stands on the slab at x = 12.5 m; its static load fails the layer at t = 0,
+    // within 2 m of it (measured: x 10.9-13.2 m, the layer under it and the slab bending at its
+    // up-slope edge).
+    const RemoteTrigger trigger{2.0, 17.0, 12.5, 2.0, 0.05};
     const RunFiles run = runQuietly(scene, dir.path());
     checkRemoteTriggering(run, trigger);
     // En-echelon (Gaume et al. 2019, sec. 3): while the crack runs up-slope, before it reaches
@@ -230,69 +216,75 @@ TEST_CASE("V9 slope: a snowman triggers a crack that runs up-slope to the top, a
 
 const std::string kSlope3d = std::string(FIRN_SOURCE_DIR) + "/scenes/slope3d.toml";
 
-TEST_CASE("V9 3D slope: a dropped ball triggers a crack that runs up-slope to the top, the slab "
+TEST_CASE("V9 3D slope: a snowman triggers a crack that runs up-slope to the top, the slab "
           "fractures behind it, breaks up and leaves its bed",
           "[validation][slope][slope3d]") {
     // scenes/slope3d.toml at its dx 0.1 and with its materials, trimmed for CI: a 1 m wide slice
     // (shipped: 3 m) with the layers over x = 4.5-12 m (shipped 0.5-18 m; the thickness profile
-    // and noise as shipped) and a 0.45 m ball (shipped 0.8 m) 0.3 m above the slab at mid-width;
-    // 0.6 s simulated, 60 631 particles, about 70 s on 2 cores (36 s of it settling).
+    // and noise as shipped) and a 0.45 m snowman (shipped 0.6 m) standing on the slab at
+    // mid-width, touching it at x = 8.5 m; 0.6 s simulated, 60 631 particles, about 100 s on
+    // 2 cores (40 s of it settling).
     test::TempDir dir("firn-slope3d");
     const SceneDesc scene =
         loadScene(kSlope3d, {"simulation.end_time=0.6", "body.base.x_range=[4.0, 13.0]",
                              "body.weak.x_range=[4.5, 12.0]", "body.slab.x_range=[4.5, 12.0]",
                              "body.base.z_range=[0.0, 1.0]", "body.weak.z_range=[0.0, 1.0]",
                              "body.slab.z_range=[0.0, 1.0]", "body.block.radius=0.45",
-                             "body.block.center=[8.72, 5.22, 0.5]", "output.particles=false",
+                             "body.block.center=[8.713, 4.775, 0.5]", "output.particles=false",
                              "output.volumes=[]"});
     const RunFiles run = runQuietly(scene, dir.path());
-    // The ball falls 0.3 m (0.25 s) and touches the slab (26 degrees there) at x ~ 8.5 m.
-    checkRemoteTriggering(run, {4.5, 12.0, 0.25, 8.5, 0.1});
-    // The slab breaks up (it was one block) and leaves its bed: its centre of mass, at rest until
-    // the crack has passed, peaks at 0.80 m/s at 0.44 s and still moves at 0.63 m/s at 0.6 s
-    // (the scene's softening 400 and slip surface; with softening 100: 0.66 and 0.62, and with
-    // one field as well 0.69 and 0.62) (the
-    // narrow slice releases sooner than the shipped 3 m wide slope; on this gentle slope at dx 0.1
-    // the grid then holds the slab back: README "Slope-scale runs").
-    // Peak above 0.5 m/s and the end above 0.3 m/s: margins of 0.2 and 0.3 m/s for a release that
-    // starts a frame later or a slab that slows a little sooner.
+    // Its static load fails the layer at t = 0 within 2.5 m of x = 8.5 m (measured: x 6.47-9.73:
+    // on this gentler slope the 0.5 m slab bends over a longer span up-slope of the snowman than
+    // the 2D slope's 0.4 m slab, 2.0 against 1.6 m).
+    checkRemoteTriggering(run, {4.5, 12.0, 8.5, 2.5, 0.1});
+    // The slab breaks up (it was one block) and leaves its bed: its centre of mass moves at
+    // 0.59 m/s by 0.12 s, when the crack has crossed the slice, and at 0.90 m/s at 0.6 s, still
+    // accelerating (the narrow slice releases sooner than the shipped 3 m wide slope; on this
+    // gentle slope the collapsed layer's friction then holds the slab to a slow slide: README
+    // "Slope-scale runs"; 0.75 m/s at 0.2 s). Above 0.5 m/s at the end, and faster than at
+    // 0.2 s: a margin of 0.4 m/s for a slab that slows a little sooner.
     const auto& rows = run.rows;
     CHECK(rows.front().at("slab_blocks") == 1);
     CHECK(summaryNumber(run.summary, "max_slab_blocks") >= 2);
-    double peakSpeed = 0, peakTime = 0;
+    double speedAt02 = 0;
     for (const auto& row : rows)
-        if (row.at("slab_speed") > peakSpeed)
-            peakSpeed = row.at("slab_speed"), peakTime = row.at("time");
+        if (std::abs(row.at("time") - 0.2) < 1e-6) speedAt02 = row.at("slab_speed");
     const double slabSpeed = rows.back().at("slab_speed");
-    INFO("slab speed " << slabSpeed << " m/s at " << rows.back().at("time") << " s, peak "
-                       << peakSpeed << " m/s at " << peakTime << " s");
-    CHECK(peakSpeed > 0.5);
-    CHECK(peakTime > 0.25 + 0.1);
-    CHECK(slabSpeed > 0.3);
+    INFO("slab speed " << speedAt02 << " m/s at 0.2 s, " << slabSpeed << " m/s at "
+                       << rows.back().at("time") << " s");
+    CHECK(speedAt02 > 0.0);
+    CHECK(slabSpeed > 0.5);
+    CHECK(slabSpeed > speedAt02);
     // The crack's arrival over the bed (crack_arrival.csv): every cell of the layer's plan
     // (75 x 10 cells of 0.1 m; cells that only hold layer squeezed out of the free sides are left
-    // out), first under the ball, and last at the layer's top and bottom ends, all after the
-    // landing and by the end of the run.
+    // out); at t = 0 only under the snowman (within 2.5 m, as the settling report: measured
+    // x 6.45-9.75 m), and the layer's top and bottom half metres later, when the crack has run
+    // there (measured by 0.059 and 0.052 s; above 0.02 s, a margin of 0.03 s), by the end of the
+    // run.
     const auto arrival = readMetrics(dir.path() + "/crack_arrival.csv");
     INFO(arrival.size() << " cells cracked");
     CHECK(arrival.size() == 750);
-    double first = 1e9, firstX = 0, lastTop = 0, lastBottom = 0;
+    int atStart = 0;
+    double lastTop = 0, lastBottom = 0;
     for (const auto& c : arrival) {
         CHECK(c.at("x") > 4.5);
         CHECK(c.at("x") < 12.0);
         CHECK(c.at("z") > 0.0);
         CHECK(c.at("z") < 1.0);
-        CHECK(c.at("time") > 0.25 - 0.02);
+        CHECK(c.at("time") >= 0.0);
         CHECK(c.at("time") <= 0.6);
-        if (c.at("time") < first) first = c.at("time"), firstX = c.at("x");
+        if (c.at("time") == 0.0) {
+            ++atStart;
+            CHECK(std::abs(c.at("x") - 8.5) < 2.5);
+        }
         if (c.at("x") < 5.0) lastTop = std::max(lastTop, c.at("time"));
         if (c.at("x") > 11.5) lastBottom = std::max(lastBottom, c.at("time"));
     }
-    INFO("first cell x = " << firstX << " m at " << first << " s; the top half metre by " << lastTop
-                           << " s, the bottom one by " << lastBottom << " s");
-    CHECK(std::abs(firstX - 8.5) < 1.0);
-    CHECK(lastTop > first + 0.05);
-    CHECK(lastBottom > first + 0.05);
+    INFO(atStart << " cells cracked at t = 0; the top half metre by " << lastTop
+                 << " s, the bottom one by " << lastBottom << " s");
+    CHECK(atStart > 0);
+    CHECK(lastTop > 0.02);
+    CHECK(lastBottom > 0.02);
 }
 
 /// bench/slab_drag.toml: a 7 m slab (0.4 m, 250 kg/m^3) on the slope2d weak layer (0.2 m) on a
