@@ -52,7 +52,9 @@ struct SettleParams {
 /// energy of the slowest mode at its equilibrium crossing). During settling every material is
 /// elastic (nothing can fail while it loads) and the ground is sticky, whatever its boundary
 /// condition (a block on a slope steeper than its friction angle, or on a slip plane, settles in
-/// place and starts to slide at t = 0); walls (planes facing sideways) keep theirs. Ends
+/// place and starts to slide at t = 0); walls (planes facing sideways) keep theirs. The transfer
+/// is APIC whatever the scene's (the equilibrium does not depend on it; FLIP's particle noise and
+/// PIC's overdamped creep delay the kinetic-energy peaks). Ends
 /// when a kinetic-energy peak is below `tolerance` x the elastic energy, or after `maxTime`.
 /// Afterwards velocities are zero, time and step count restart at 0, the materials' plasticity
 /// is applied once to the settled stress, and the particles it yields are reported: their
