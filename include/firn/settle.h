@@ -47,6 +47,10 @@ struct SettleParams {
     std::vector<std::string> materialNames;
 };
 
+/// How a material is named in settling's report and summary: its scene name, or "material N"
+/// (N from 1, in scene order) when it has none.
+std::string materialLabel(const std::vector<std::string>& names, std::size_t index);
+
 /// Dynamic relaxation of the world under full gravity (Cundall's kinetic damping: every time
 /// the total kinetic energy passes a peak, all velocities are set to zero, which removes the
 /// energy of the slowest mode at its equilibrium crossing). During settling every material is

@@ -4,6 +4,7 @@
 #include <firn/peak_fields.h>
 #include <firn/resources.h>
 #include <firn/run.h>
+#include <firn/settle.h>
 #include <firn/slab_fracture.h>
 #include <firn/snow_parameters.h>
 #include <firn/solver.h>
@@ -206,12 +207,13 @@ void writeSettleOverload(JsonObject& j, const SettleReport& settle, const World&
         j.set(std::string("settle_overloaded_") + axes[a] + "_min", settle.overloadedMin[a]);
         j.set(std::string("settle_overloaded_") + axes[a] + "_max", settle.overloadedMax[a]);
     }
+    std::vector<std::string> names;
+    for (const MaterialDesc& m : materials) names.push_back(m.name);
     std::vector<JsonObject> byMaterial;
     for (std::size_t m = 0; m < settle.overloadedByMaterial.size(); ++m) {
         if (settle.overloadedByMaterial[m] == 0) continue;
         JsonObject o;
-        const bool named = m < materials.size() && !materials[m].name.empty();
-        o.set("material", named ? materials[m].name : "material " + std::to_string(m + 1));
+        o.set("material", materialLabel(names, m));
         o.set("particles", static_cast<long long>(settle.overloadedByMaterial[m]));
         byMaterial.push_back(o);
     }

@@ -104,11 +104,8 @@ void reportOverload(World& w, const std::vector<std::string>& names, SettleRepor
     bool first = true;
     for (std::size_t m = 0; m < report.overloadedByMaterial.size(); ++m) {
         if (!report.overloadedByMaterial[m]) continue;
-        why << (first ? "" : ", ") << report.overloadedByMaterial[m] << " of ";
-        if (m < names.size() && !names[m].empty())
-            why << names[m];
-        else
-            why << "material " << m + 1;
+        why << (first ? "" : ", ") << report.overloadedByMaterial[m] << " of "
+            << materialLabel(names, m);
         first = false;
     }
     why << "), within " << formatBox(report.overloadedMin, report.overloadedMax, w.dim);
@@ -116,6 +113,11 @@ void reportOverload(World& w, const std::vector<std::string>& names, SettleRepor
 }
 
 } // namespace
+
+std::string materialLabel(const std::vector<std::string>& names, std::size_t index) {
+    if (index < names.size() && !names[index].empty()) return names[index];
+    return "material " + std::to_string(index + 1);
+}
 
 SettleReport settleUnderGravity(World& w, const SettleParams& params) {
     const auto start = std::chrono::steady_clock::now();
