@@ -222,8 +222,8 @@ TEST_CASE("V9 3D slope: a snowman triggers a crack that runs up-slope to the top
     // scenes/slope3d.toml at its dx 0.1 and with its materials, trimmed for CI: a 1 m wide slice
     // (shipped: 3 m) with the layers over x = 4.5-12 m (shipped 0.5-18 m; the thickness profile
     // and noise as shipped) and a 0.45 m snowman (shipped 0.6 m) standing on the slab at
-    // mid-width, touching it at x = 8.5 m; 0.6 s simulated, 60 631 particles, about 100 s on
-    // 2 cores (40 s of it settling).
+    // mid-width, touching it at x = 8.5 m; 0.6 s simulated, 60 627 particles, about 65 s on
+    // 2 cores (11 s of it settling).
     test::TempDir dir("firn-slope3d");
     const SceneDesc scene =
         loadScene(kSlope3d, {"simulation.end_time=0.6", "body.base.x_range=[4.0, 13.0]",
