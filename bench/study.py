@@ -3,7 +3,7 @@
 charts (PNG and SVG) into bench/results/<study>/, with the scene, overrides, commit and machine
 of every run.
 
-    /usr/bin/python3 bench/study.py stability|accuracy|slice|throughput [--quick] [--threads N]
+    /usr/bin/python3 bench/study.py stability|accuracy|slice|channel|throughput [--quick] [--threads N]
 
 Studies:
   stability  a stiff elastic block dropped on the ground and a cohesive Cam-Clay snow slab
@@ -23,6 +23,10 @@ Studies:
   slice      V2 and V7 in 2D and as a thin 3D slice between slip walls: error and cost side by
              side; V7 also at the aspect ratios a = 0.5, 1, 2, 4 (--aspects) at dx 0.005 against
              Lube's law. --quick: V2 at dx 0.01, 2D and 2-cell slice agree within 1 % of c_p.
+  channel    V7 at a = 0.5, 1, 2, 4, 8 in 2D and in 3D channels between Coulomb side walls
+             (dx 0.01): how the walls of the experiments' channels lower the large-a exponent of
+             the runout (exponents.csv). --quick: a = 2 and 8 in 2D and in a 6 cm channel (wall
+             mu 0.4) at dx 0.02; the channel's exponent must lie at least 0.1 below 2D's.
   throughput build/firn_bench on elastic blocks of 7 000 to 1 900 000 particles: particle-steps
              per second with 1 thread and all threads, bytes per particle; and the same block
              at the origin, 1 km away and in a domain 8 times its volume (a sparse grid must
@@ -328,12 +332,15 @@ def column_end_time(aspect):
     return round(0.2 * math.ceil(3.0 * max(1.0, aspect) ** 0.5 - 1e-9), 3)  # 5 frames/s
 
 
-def column_scene(dimension=2, width=0.0, aspect=COLUMN_ASPECT):
+def column_scene(dimension=2, width=0.0, aspect=COLUMN_ASPECT, wall_friction=None):
+    """The V7 column; in 3D between side walls at z = 0 and z = width, slip walls or, with
+    wall_friction, Coulomb walls of that coefficient (the channel study)."""
     v = (lambda *c: "[" + ", ".join(str(x) for x in (c if dimension == 3 else c[:2])) + "]")
     walls = [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), "sticky"), ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "slip")]
     if dimension == 3:
-        walls += [((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), "slip"),
-                  ((0.0, 0.0, width), (0.0, 0.0, -1.0), "slip")]
+        side = "slip" if wall_friction is None else "friction"
+        walls += [((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), side),
+                  ((0.0, 0.0, width), (0.0, 0.0, -1.0), side)]
     text = f"""
 [simulation]
 name = "column"
@@ -354,7 +361,7 @@ poisson_ratio = 0.3
 """
     for point, normal, bc in walls:
         text += (f'[[terrain]]\nshape = "plane"\npoint = {v(*point)}\nnormal = {v(*normal)}\n'
-                 f'boundary = "{bc}"\n')
+                 f'boundary = "{bc}"\n' + (f"friction = {wall_friction}\n" if bc == "friction" else ""))
     text += f"""[[body]]
 material = "sand"
 shape = "box"
@@ -615,6 +622,78 @@ def slice_study(args, out_dir):
     return rows
 
 
+# V7 in a channel: Lube et al. 2005 and Balmforth & Kerswell 2005 (J. Fluid Mech. 538:399) collapsed
+# their planar columns between side walls, which rub on the grains. Balmforth & Kerswell measured
+# the large-a runout exponent 0.9 +- 0.1 in wide channels and 0.65 +- 0.05 in narrow slots; Lube's
+# law has 2/3. The study runs the V7 column (COLUMN_FRICTION, fitted in 2D without walls) in 2D and
+# between Coulomb side walls: (channel width m, wall coefficient), width 0 = 2D. dx 0.01: the a = 1
+# runout is within 1.2 % of dx 0.005's (README, V7); the a = 8 channel of 10 cm costs ~4 min
+# on 2 cores, the whole study ~25 min.
+CHANNEL_ASPECTS = (0.5, 1.0, 2.0, 4.0, 8.0)
+CHANNEL_WALLS = ((0.0, None), (0.1, 0.3), (0.05, 0.2), (0.1, 0.5), (0.05, 0.4), (0.03, 0.4))
+CHANNEL_DX = 0.01
+
+
+def channel_label(width, wall_friction):
+    return ("2D (no side walls)" if width == 0 else
+            f"channel {width * 100:g} cm, wall mu {wall_friction:g}")
+
+
+def channel_study(args, out_dir):
+    dx = 0.02 if args.quick else CHANNEL_DX
+    aspects = (2.0, 8.0) if args.quick else CHANNEL_ASPECTS
+    walls = ((0.0, None), (0.06, 0.4)) if args.quick else CHANNEL_WALLS
+    rows = []
+    with tempfile.TemporaryDirectory() as work:
+        for width, mu in walls:
+            for aspect in aspects:
+                dimension = 2 if width == 0 else 3
+                name = f"channel-{width}-{mu}-{aspect}"
+                scene = os.path.join(work, name + ".toml")
+                with open(scene, "w") as f:
+                    f.write(column_scene(dimension, width, aspect, mu))
+                out = os.path.join(work, name)
+                code, summary, metrics = run_scene(args, scene, [f"grid.dx={dx}"], out)
+                ok = summary["status"] == "ok"
+                value = column_runout(out) if ok else float("nan")
+                reference = column_law(aspect)
+                rows.append({"case": "v7", "aspect": aspect, "model": channel_label(width, mu),
+                             "channel_width": width, "wall_friction": 0.0 if mu is None else mu,
+                             "dx": dx, "value": value,
+                             "runout_p90": column_runout(out, 0.90) if ok else float("nan"),
+                             "reference": reference,
+                             "relative_error": (value - reference) / reference,
+                             "particles": summary["particles"], "steps": summary["steps"],
+                             "wall_seconds": summary["wall_seconds"], "status": summary["status"]})
+                print(f"a {aspect:<4g} {channel_label(width, mu):32s}: runout {value:.4g} "
+                      f"(law {reference:.4g}), {summary['particles']} particles, "
+                      f"{summary['wall_seconds']:.1f} s", flush=True)
+    write_exponents(rows, out_dir)
+    return rows
+
+
+def write_exponents(rows, out_dir):
+    with open(os.path.join(out_dir, "exponents.csv"), "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["model", "aspect_from", "aspect_to", "exponent"])
+        for model, a, b, exponent in channel_exponents(rows):
+            writer.writerow([model, a, b, f"{exponent:.4f}"])
+            print(f"{model:32s}: exponent {exponent:.3f} from a = {a:g} to {b:g}")
+
+
+def channel_exponents(rows):
+    """(model, a, b, exponent) for each model and each pair of consecutive aspect ratios >= 2:
+    the runout's local power of a, d ln(runout) / d ln(a)."""
+    import math
+    result = []
+    for model in dict.fromkeys(r["model"] for r in rows):
+        runs = sorted((float(r["aspect"]), float(r["value"])) for r in rows if r["model"] == model)
+        runs = [(a, v) for a, v in runs if a >= 2.0]
+        for (a, u), (b, w) in zip(runs, runs[1:]):
+            result.append((model, a, b, math.log(w / u) / math.log(b / a)))
+    return result
+
+
 def run_bench(bench, cells, steps, offset=0.0, domain=1.0):
     out = subprocess.run([bench, "--cells", str(cells), "--steps", str(steps),
                           "--offset", str(offset), "--domain", str(domain)],
@@ -775,6 +854,58 @@ def chart_slice(rows, out_dir):
         fig.savefig(os.path.join(out_dir, f"slice.{ext}"))
 
 
+def chart_channel(rows, out_dir):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+        return
+    import numpy as np
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5))
+    law_a = np.linspace(0.4, 10, 200)
+    ax.plot(law_a[law_a < 1.8], 1.2 * law_a[law_a < 1.8], "k-", lw=1.5,
+            label="Lube et al. 2005: 1.2 a (a < 1.8)")
+    ax.plot(law_a[law_a > 2.8], 1.9 * law_a[law_a > 2.8] ** (2 / 3), "k--", lw=1.5,
+            label="Lube et al. 2005: 1.9 a^(2/3) (a > 2.8)")
+    for model in dict.fromkeys(r["model"] for r in rows):
+        runs = sorted((float(r["aspect"]), float(r["value"])) for r in rows if r["model"] == model)
+        ax.plot(*zip(*runs), "o-", label=model)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("aspect ratio a = H0 / L0")
+    ax.set_ylabel("normalised runout (L - L0) / L0")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize="small")
+    # Two walls take a friction of about mu_w K rho g h^2 per unit length of a flow of depth h
+    # (K the lateral stress ratio) against its weight rho g h W: mu_w h / W relative to the weight.
+    # Every run has the same L0, so mu_w L0 / W orders them.
+    wall = {r["model"]: float(r["wall_friction"]) * COLUMN_L0 / float(r["channel_width"])
+            if float(r["channel_width"]) > 0 else 0.0 for r in rows}
+    bx.axhspan(0.57, 0.77, color="C2", alpha=0.2, lw=0, label="validation.md V7: 0.67 +- 0.1")
+    bx.axhspan(0.8, 1.0, color="C1", alpha=0.2, lw=0,
+               label="Balmforth & Kerswell 2005, wide channels: 0.9 +- 0.1")
+    bx.axhspan(0.6, 0.7, color="C4", alpha=0.2, lw=0,
+               label="Balmforth & Kerswell 2005, narrow slots: 0.65 +- 0.05")
+    pairs = list(dict.fromkeys((a, b) for _, a, b, _ in channel_exponents(rows)))
+    for k, (lo, hi) in enumerate(pairs):
+        points = sorted((wall[m], e) for m, a, b, e in channel_exponents(rows) if (a, b) == (lo, hi))
+        bx.plot(*zip(*points), "os^v"[k % 4] + "-", color="k", alpha=0.4 + 0.6 * k / len(pairs),
+                label=f"Firn, a = {lo:g} to {hi:g}")
+    bx.set_xlabel("wall friction mu_w L0 / W (0: 2D, no side walls)")
+    bx.set_ylabel("large-a exponent d ln(runout) / d ln(a)")
+    bx.set_ylim(0.4, 1.2)
+    bx.legend(fontsize="small", loc="lower left")
+    bx.grid(True, alpha=0.3)
+    dx = rows[0]["dx"]
+    fig.suptitle(f"V7 column collapse in 2D and between Coulomb side walls (dx {float(dx):g}, "
+                 "mu(I) fitted in 2D without walls)")
+    fig.tight_layout()
+    for ext in ("png", "svg"):
+        fig.savefig(os.path.join(out_dir, f"channel.{ext}"))
+
+
 def chart_stability(rows, out_dir):
     try:
         import matplotlib
@@ -811,12 +942,13 @@ def chart_stability(rows, out_dir):
 NUMERIC = {"cfl", "particles_per_cell", "dx", "relative_error", "wall_seconds",
            "particle_steps", "acceleration", "energy_drift", "steps", "particles", "pss1",
            "pssN", "threads", "speedup", "bytes_per_particle", "bytes_per_particle_net", "cells",
-           "offset_m", "domain_scale", "value", "reference", "slice_cells", "slice_width"}
+           "offset_m", "domain_scale", "value", "reference", "slice_cells", "slice_width",
+           "aspect", "channel_width", "wall_friction", "runout_p90"}
 
 
 def read_rows(path):
     with open(path) as f:
-        rows = [{k: (float(v) if k in NUMERIC else v) for k, v in r.items()}
+        rows = [{k: (float(v) if k in NUMERIC and v != "" else v) for k, v in r.items()}
                 for r in csv.DictReader(f)]
     for r in rows:
         if "particles_per_cell" in r:
@@ -846,6 +978,19 @@ def quick_check(study, rows):
             return False
         if outcome[("slab", "apic", 0.4)] != "stable":
             print("check failed: APIC must be stable at CFL 0.4 (snow slab)")
+            return False
+        return True
+    if study == "channel":
+        # Side walls take momentum from the tall columns' fast flows more than from the short
+        # ones', so the runout grows more slowly with a than in 2D. From a = 2 to 8 the 5 cm
+        # channel (wall mu 0.4) measured 0.77 against 2D's 1.00 at dx 0.01, and the quick run's
+        # 6 cm channel 0.79 against 1.04 at dx 0.02: a drop of 0.24; 0.1 fails a channel whose
+        # walls have lost more than half of their grip.
+        exponent = {m: e for m, a, b, e in channel_exponents(rows)}
+        flat, walled = exponent["2D (no side walls)"], exponent[channel_label(0.06, 0.4)]
+        if not walled < flat - 0.1:
+            print(f"check failed: the channel's exponent {walled:.3f} must lie at least 0.1 "
+                  f"below 2D's {flat:.3f}")
             return False
         return True
     ok = True
@@ -897,7 +1042,8 @@ def quick_check(study, rows):
 
 def main():
     parser = argparse.ArgumentParser(description="Firn study harness")
-    parser.add_argument("study", choices=["stability", "accuracy", "throughput", "slice"])
+    parser.add_argument("study",
+                        choices=["stability", "accuracy", "throughput", "slice", "channel"])
     parser.add_argument("--quick", action="store_true", help="small subset with a check (CI)")
     parser.add_argument("--firn", default=os.path.join(ROOT, "build", "firn"))
     parser.add_argument("--out", default=None, help="results folder (default bench/results/<study>)")
@@ -916,12 +1062,15 @@ def main():
     out_dir = args.out or os.path.join(ROOT, "bench", "results", args.study)
     os.makedirs(out_dir, exist_ok=True)
     studies = {"stability": (stability, chart_stability), "accuracy": (accuracy, chart_accuracy),
-               "throughput": (throughput, chart_throughput), "slice": (slice_study, chart_slice)}
+               "throughput": (throughput, chart_throughput), "slice": (slice_study, chart_slice),
+               "channel": (channel_study, chart_channel)}
     run, chart = studies[args.study]
     if args.chart_only:
         rows = read_rows(os.path.join(out_dir, "results.csv"))
         if args.study == "accuracy":
             write_convergence(rows, out_dir)
+        if args.study == "channel":
+            write_exponents(rows, out_dir)
         chart(rows, out_dir)
         return 0
     rows = run(args, out_dir)
@@ -938,7 +1087,11 @@ def main():
                        "3D slice": "the same with dimension 3, 8 particles per cell and slip "
                                    "walls at z = 0 and z = cells * dx",
                        "v7 aspects": f"column height a * L0 for a in {list(args.aspects)}, "
-                                     "end_time 0.2 ceil(3 sqrt(max(1, a))) s, dx 0.005"}
+                                     "end_time 0.2 ceil(3 sqrt(max(1, a))) s, dx 0.005"},
+             "channel": {"v7": column_scene(),
+                         "channel": "the same with dimension 3, 8 particles per cell, Coulomb "
+                                    "walls at z = 0 and z = width (CHANNEL_WALLS), a in "
+                                    f"{list(CHANNEL_ASPECTS)}, dx {CHANNEL_DX}"}
              }[args.study]
     with open(os.path.join(out_dir, "run.json"), "w") as f:
         json.dump({"study": args.study, "quick": args.quick, "commit": commit(),
