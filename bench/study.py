@@ -720,13 +720,21 @@ def throughput(args, out_dir):
     return rows
 
 
-def chart_throughput(rows, out_dir):
+def pyplot():
+    """matplotlib's pyplot on the Agg backend, or None (with a note) where it is missing."""
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
         print("matplotlib missing (Debian: python3-matplotlib): no chart")
+        return None
+    return plt
+
+
+def chart_throughput(rows, out_dir):
+    plt = pyplot()
+    if plt is None:
         return
     at0 = sorted((r for r in rows if float(r["offset_m"]) == 0.0 and
                   float(r.get("domain_scale", 1.0)) == 1.0), key=lambda r: r["particles"])
@@ -761,12 +769,8 @@ def pareto(points):
 
 
 def chart_accuracy(rows, out_dir):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+    plt = pyplot()
+    if plt is None:
         return
     ok = [r for r in rows if r["status"] == "ok" and float(r["relative_error"]) > 0]
     conv = {(c["case"], c["method"]): c for c in convergence(rows)}
@@ -807,12 +811,8 @@ def chart_accuracy(rows, out_dir):
 
 
 def chart_slice(rows, out_dir):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+    plt = pyplot()
+    if plt is None:
         return
     def group_of(r):  # V7 rows carry the column's aspect ratio (older results: a = 1 only)
         a = r.get("aspect", "")
@@ -855,12 +855,8 @@ def chart_slice(rows, out_dir):
 
 
 def chart_channel(rows, out_dir):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+    plt = pyplot()
+    if plt is None:
         return
     import numpy as np
     fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5))
@@ -907,12 +903,8 @@ def chart_channel(rows, out_dir):
 
 
 def chart_stability(rows, out_dir):
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("matplotlib missing (Debian: python3-matplotlib): no chart")
+    plt = pyplot()
+    if plt is None:
         return
     colours = {"stable": "tab:green", "inaccurate": "tab:orange", "unstable": "tab:red"}
     cases = [c for c in STABILITY_CASES if any(r.get("case", "block") == c for r in rows)]
