@@ -3,7 +3,8 @@
 charts (PNG and SVG) into bench/results/<study>/, with the scene, overrides, commit and machine
 of every run.
 
-    /usr/bin/python3 bench/study.py stability|accuracy|slice|channel|throughput [--quick] [--threads N]
+    /usr/bin/python3 bench/study.py stability|accuracy|slice|channel|throughput [--quick]
+                                    [--threads N]
 
 Studies:
   stability  a stiff elastic block dropped on the ground and a cohesive Cam-Clay snow slab
@@ -361,7 +362,9 @@ poisson_ratio = 0.3
 """
     for point, normal, bc in walls:
         text += (f'[[terrain]]\nshape = "plane"\npoint = {v(*point)}\nnormal = {v(*normal)}\n'
-                 f'boundary = "{bc}"\n' + (f"friction = {wall_friction}\n" if bc == "friction" else ""))
+                 f'boundary = "{bc}"\n')
+        if bc == "friction":
+            text += f"friction = {wall_friction}\n"
     text += f"""[[body]]
 material = "sand"
 shape = "box"
@@ -653,7 +656,7 @@ def channel_study(args, out_dir):
                 with open(scene, "w") as f:
                     f.write(column_scene(dimension, width, aspect, mu))
                 out = os.path.join(work, name)
-                code, summary, metrics = run_scene(args, scene, [f"grid.dx={dx}"], out)
+                _, summary, _ = run_scene(args, scene, [f"grid.dx={dx}"], out)
                 ok = summary["status"] == "ok"
                 value = column_runout(out) if ok else float("nan")
                 reference = column_law(aspect)
@@ -886,7 +889,8 @@ def chart_channel(rows, out_dir):
                label="Balmforth & Kerswell 2005, narrow slots: 0.65 +- 0.05")
     pairs = list(dict.fromkeys((a, b) for _, a, b, _ in channel_exponents(rows)))
     for k, (lo, hi) in enumerate(pairs):
-        points = sorted((wall[m], e) for m, a, b, e in channel_exponents(rows) if (a, b) == (lo, hi))
+        points = sorted((wall[m], e) for m, a, b, e in channel_exponents(rows)
+                        if (a, b) == (lo, hi))
         bx.plot(*zip(*points), "os^v"[k % 4] + "-", color="k", alpha=0.4 + 0.6 * k / len(pairs),
                 label=f"Firn, a = {lo:g} to {hi:g}")
     bx.set_xlabel("wall friction mu_w L0 / W (0: 2D, no side walls)")
