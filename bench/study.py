@@ -887,10 +887,10 @@ def chart_channel(rows, out_dir):
                label="Balmforth & Kerswell 2005, wide channels: 0.9 +- 0.1")
     bx.axhspan(0.6, 0.7, color="C4", alpha=0.2, lw=0,
                label="Balmforth & Kerswell 2005, narrow slots: 0.65 +- 0.05")
-    pairs = list(dict.fromkeys((a, b) for _, a, b, _ in channel_exponents(rows)))
+    exponents = channel_exponents(rows)
+    pairs = list(dict.fromkeys((a, b) for _, a, b, _ in exponents))
     for k, (lo, hi) in enumerate(pairs):
-        points = sorted((wall[m], e) for m, a, b, e in channel_exponents(rows)
-                        if (a, b) == (lo, hi))
+        points = sorted((wall[m], e) for m, a, b, e in exponents if (a, b) == (lo, hi))
         bx.plot(*zip(*points), "os^v"[k % 4] + "-", color="k", alpha=0.4 + 0.6 * k / len(pairs),
                 label=f"Firn, a = {lo:g} to {hi:g}")
     bx.set_xlabel("wall friction mu_w L0 / W (0: 2D, no side walls)")
