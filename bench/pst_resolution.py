@@ -4,7 +4,8 @@ at several grid spacings and slope angles, beside the closed form of Gaume et al
 
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
         [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
-        [--speed-column 6] [--bracket 0 0.8] [--steps 5] [--threads N] [--out DIR]
+        [--speed-column 6] [--bracket 0 0.8] [--steps 5] [--weak-thickness 0.06] [--threads N]
+        [--out DIR]
 
 For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm; --bracket and
 --steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with the cut at the
@@ -18,7 +19,10 @@ after 6.7 m of travel), from 1000 frames per second. The saw is the scenes'
 g (sin psi, -cos psi), so that x runs down the slope. --set passes scene overrides to every run.
 Writes results.csv into bench/results/pst-resolution/ (or --out) and prints a table. The weak
 layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; particles per cell
-stay 4.
+stay 4. --weak-thickness T gives the layer another thickness with the PST layer's collapse energy
+per unit area: softening 100 T / 0.06 and softening_length T, so that the crack band scales the
+softening wherever its 6 cells are thinner than T (README, Snow -> Resolution); the closed form
+takes D_wl = T.
 """
 import argparse
 import csv
@@ -133,25 +137,33 @@ def main():
     parser.add_argument("--steps", type=int, default=5, help="bisection steps (default 5)")
     parser.add_argument("--speed-column", type=float, default=6.0,
                         help="length of the speed run's column, m (the cut is 0.8 m)")
+    parser.add_argument("--weak-thickness", type=float, default=0.06,
+                        help="weak layer thickness in m, its softening scaled (default 0.06)")
     parser.add_argument("--threads", type=int, help="threads per run (default: all cores)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "pst-resolution"))
     args = parser.parse_args()
     results_dir = args.out
     if args.threads:
         THREADS.extend(["--threads", str(args.threads)])
+    if args.weak_thickness != 0.06:
+        t = args.weak_thickness
+        args.overrides = [f"body.weak.thickness={t}",
+                          f"material.weak.softening={100.0 * t / 0.06:g}",
+                          f"material.weak.softening_length={t}"] + args.overrides
     os.makedirs(results_dir, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for dx in args.dx:
             for slope in args.slopes:
-                row = {"dx": dx, "slope": slope, "cells_in_weak_layer": round(0.06 / dx, 2),
+                row = {"dx": dx, "slope": slope,
+                       "cells_in_weak_layer": round(args.weak_thickness / dx, 2),
                        "criterion": args.criterion, "overrides": " ".join(args.overrides)}
                 if not args.speed_only:
                     stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
                                                      args.criterion, args.steps,
                                                      tuple(args.bracket))
                     row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
-                                "a_c_closed_form": round(closed_form_ac(slope), 4),
+                                "a_c_closed_form": round(closed_form_ac(slope, D_wl=args.weak_thickness), 4),
                                 "wall_seconds_ac": round(t_ac, 1)})
                 if not args.ac_only:
                     speed_out = os.path.join(work, f"speed-{dx}-{slope}")
