@@ -163,7 +163,8 @@ def main():
                                                      args.criterion, args.steps,
                                                      tuple(args.bracket))
                     row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
-                                "a_c_closed_form": round(closed_form_ac(slope, D_wl=args.weak_thickness), 4),
+                                "a_c_closed_form":
+                                    round(closed_form_ac(slope, D_wl=args.weak_thickness), 4),
                                 "wall_seconds_ac": round(t_ac, 1)})
                 if not args.ac_only:
                     speed_out = os.path.join(work, f"speed-{dx}-{slope}")
