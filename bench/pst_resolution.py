@@ -20,9 +20,9 @@ g (sin psi, -cos psi), so that x runs down the slope. --set passes scene overrid
 Writes results.csv into bench/results/pst-resolution/ (or --out) and prints a table. The weak
 layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; particles per cell
 stay 4. --weak-thickness T gives the layer another thickness with the PST layer's collapse energy
-per unit area: softening 100 T / 0.06 and softening_length T, so that the crack band scales the
-softening wherever its 6 cells are thinner than T (README, Snow -> Resolution); the closed form
-takes D_wl = T.
+per unit area: the scene's softening times T over its thickness (100 T / 0.06), and
+softening_length T, so that the crack band scales the softening wherever its 6 cells are thinner
+than T (README, Snow -> Resolution); the closed form takes D_wl = T.
 """
 import argparse
 import csv
@@ -33,6 +33,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -66,6 +67,21 @@ def closed_form_ac(slope, E=5e6, nu=0.2, rho=250.0, D=0.5, D_wl=0.06, G_wl=0.2e6
     sigma_n = rho * 9.81 * D * math.cos(psi)
     tau_g = rho * 9.81 * D * math.sin(psi)
     return lam * (-tau_g + math.sqrt(tau_g ** 2 + 2 * sigma_n * (tau_p - tau_g))) / sigma_n
+
+
+def weak_thickness_overrides(thickness):
+    """Overrides that give pst.toml's weak layer `thickness` with the same collapse energy per
+    unit area (none for the scene's own thickness): softening scaled with the thickness, and
+    softening_length the thickness, so that the crack band scales it on finer grids."""
+    with open(os.path.join(ROOT, "scenes", "pst.toml"), "rb") as f:
+        scene = tomllib.load(f)
+    layer = next(b for b in scene["body"] if b["name"] == "weak")["thickness"]
+    softening = next(m for m in scene["material"] if m["name"] == "weak")["softening"]
+    if thickness == layer:
+        return []
+    return [f"body.weak.thickness={thickness}",
+            f"material.weak.softening={softening * thickness / layer:g}",
+            f"material.weak.softening_length={thickness}"]
 
 
 def up_slope_track(out):
@@ -145,11 +161,7 @@ def main():
     results_dir = args.out
     if args.threads:
         THREADS.extend(["--threads", str(args.threads)])
-    if args.weak_thickness != 0.06:
-        t = args.weak_thickness
-        args.overrides = [f"body.weak.thickness={t}",
-                          f"material.weak.softening={100.0 * t / 0.06:g}",
-                          f"material.weak.softening_length={t}"] + args.overrides
+    args.overrides = weak_thickness_overrides(args.weak_thickness) + args.overrides
     os.makedirs(results_dir, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as work:
