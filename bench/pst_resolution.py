@@ -4,14 +4,16 @@ at several grid spacings and slope angles, beside the closed form of Gaume et al
 
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
         [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
-        [--speed-column 6] [--bracket 0 0.8] [--steps 5] [--weak-thickness 0.06] [--threads N]
-        [--out DIR]
+        [--speed-column 6] [--speed-cut 0.8] [--bracket 0 0.8] [--steps 5]
+        [--weak-thickness 0.06] [--threads N] [--out DIR]
 
 For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm; --bracket and
---steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with the cut at the
-down-slope end, as in the field (criterion "run": the crack reaches the up-slope end within
-0.2 s; "onset": it grows more than 0.3 m past the cut), then the steady crack speed on the full
-6 m column (--speed-column) with a 0.8 m cut at its down-slope end (not with --ac-only), as
+--steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with
+the cut at the down-slope end, as in the field (criterion "run": the crack from the cut reaches
+the up-slope end within 0.2 s; "onset": it grows more than 0.3 m past the cut; a crack that does
+not reach back to the cut, such as the free up-slope end yielding on its own, counts for
+neither), then the steady crack speed on the full 6 m column (--speed-column) with a 0.8 m cut
+(--speed-cut) at its down-slope end (not with --ac-only), as
 summary.json's mean_crack_speed, as the up-slope end's speed over the column less 0.5 m at each
 end (front_speed) and over its last 4 m before that margin (late_front_speed: on a 12 m column,
 after 6.7 m of travel), from 1000 frames per second. The saw is the scenes'
@@ -91,9 +93,15 @@ def up_slope_track(out):
                 for row in csv.DictReader(f) if row["crack_tip_min_x"]]
 
 
-def up_slope_reach(out):
-    """Smallest crack_tip_min_x in metrics.csv (inf when no crack): how far up-slope it ran."""
-    return min((x for _, x in up_slope_track(out)), default=math.inf)
+def up_slope_reach(out, tip, dx):
+    """Smallest crack_tip_min_x in metrics.csv over the frames whose crack reaches back to the
+    cut's tip (its crack_tip_max_x within two cells of it; inf when none): how far up-slope the
+    crack from the cut ran. A crack elsewhere (the column's free up-slope end yielding under
+    its static load on a steep slope) does not count: it is not the cut's."""
+    with open(os.path.join(out, "metrics.csv")) as f:
+        return min((float(row["crack_tip_min_x"]) for row in csv.DictReader(f)
+                    if row["crack_tip_min_x"] and float(row["crack_tip_max_x"]) >= tip - 2 * dx),
+                   default=math.inf)
 
 
 def front_speed(out, start, end):
@@ -128,7 +136,7 @@ def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, brac
                           f"cut.weak.length={cut}", "simulation.end_time=0.2",
                           "simulation.frame_rate=100"], out, extra)
         seconds += t
-        reach = up_slope_reach(out)
+        reach = up_slope_reach(out, length - cut, dx)
         if (reach < 0.1) if criterion == "run" else (reach < length - cut - 0.3):
             runs = cut
         else:
@@ -152,7 +160,9 @@ def main():
                         help="cut lengths (m) the bisection starts between (default 0 0.8)")
     parser.add_argument("--steps", type=int, default=5, help="bisection steps (default 5)")
     parser.add_argument("--speed-column", type=float, default=6.0,
-                        help="length of the speed run's column, m (the cut is 0.8 m)")
+                        help="length of the speed run's column, m (default 6)")
+    parser.add_argument("--speed-cut", type=float, default=0.8,
+                        help="the speed run's cut, m: longer than a_c (default 0.8)")
     parser.add_argument("--weak-thickness", type=float, default=0.06,
                         help="weak layer thickness in m, its softening scaled (default 0.06)")
     parser.add_argument("--threads", type=int, help="threads per run (default: all cores)")
@@ -180,18 +190,18 @@ def main():
                                 "wall_seconds_ac": round(t_ac, 1)})
                 if not args.ac_only:
                     speed_out = os.path.join(work, f"speed-{dx}-{slope}")
-                    column, tip = args.speed_column, args.speed_column - 0.8
+                    column, tip = args.speed_column, args.speed_column - args.speed_cut
                     summary, t_speed = run(args.firn, [f"grid.dx={dx}", gravity(slope),
                                                        f"body.weak.x_range=[0.0, {column}]",
                                                        f"body.slab.x_range=[0.0, {column}]",
                                                        f"cut.weak.from_x={tip}",
-                                                       "cut.weak.length=0.8",
+                                                       f"cut.weak.length={args.speed_cut}",
                                                        f"simulation.end_time={0.05 * column}",
                                                        "simulation.frame_rate=1000"],
                                            speed_out, args.overrides)
                     front = front_speed(speed_out, tip - 0.5, 0.5)
                     late = front_speed(speed_out, 4.5, 0.5)
-                    row.update({"column": column,
+                    row.update({"column": column, "speed_cut": args.speed_cut,
                                 "steady_crack_speed": round(summary["mean_crack_speed"], 2),
                                 "front_speed": round(front, 2) if front else "",
                                 "late_front_speed": round(late, 2) if late else "",
