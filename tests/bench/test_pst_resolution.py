@@ -1,0 +1,84 @@
+#!/usr/bin/python3
+"""bench/pst_resolution.py's pure parts: the closed form against validation.md V8's example values,
+the bisection's "run" reading of metrics.csv (a crack counts only when it reaches back to the cut:
+a free up-slope end yielding on its own under a steep slope's load is not the cut's crack), the
+up-slope front's speed, and --weak-thickness's overrides read from scenes/pst.toml."""
+import csv
+import importlib.util
+import math
+import os
+import sys
+import tempfile
+import tomllib
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.join(HERE, '..', '..')
+spec = importlib.util.spec_from_file_location(
+    'pst_resolution', os.path.join(ROOT, 'bench', 'pst_resolution.py'))
+pst = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(pst)
+
+failures = []
+
+
+def check(what, ok, detail):
+    print(f'{"ok  " if ok else "FAIL"} {what}: {detail}')
+    if not ok:
+        failures.append(what)
+
+
+# validation.md V8: a_c = 1.129, 0.865, 0.622, 0.401, 0.300, 0.244 m at 0-38 degrees, quoted to
+# 1 mm; pst.toml's 6 cm layer of G 0.2 MPa has the example's D_wl / G_wl, so the same Lambda.
+for slope, want in ((0, 1.129), (10, 0.865), (20, 0.622), (30, 0.401), (35, 0.300), (38, 0.244)):
+    got = pst.closed_form_ac(slope)
+    check(f'closed form at {slope} deg', abs(got - want) <= 5e-4, f'{got:.4f} against {want} m')
+
+
+def metrics(work, name, rows):
+    """A metrics.csv with the crack extent's columns only: rows of (time, min_x, max_x)."""
+    out = os.path.join(work, name)
+    os.makedirs(out)
+    with open(os.path.join(out, 'metrics.csv'), 'w', newline='') as f:
+        writer = csv.writer(f)
+        writer.writerow(['frame', 'time', 'crack_tip_min_x', 'crack_tip_max_x'])
+        for frame, (time, lo, hi) in enumerate(rows):
+            writer.writerow([frame, time, '' if lo is None else lo, '' if hi is None else hi])
+    return out
+
+
+# A 3 m column cut over its last 0.5 m (tip at x = 2.5 m), dx 0.03.
+TIP, DX = 2.5, 0.03
+with tempfile.TemporaryDirectory() as work:
+    runs = metrics(work, 'runs', [(0.0, None, None), (0.05, 1.6, 2.49), (0.1, 0.02, 2.49)])
+    reach = pst.up_slope_reach(runs, TIP, DX)
+    check('the cut\'s crack reaches the up-slope end', reach == 0.02, f'reach {reach} m')
+
+    # The free up-slope end yields alone (the extent is that one particle's cell): before
+    # 2026-12-05 this read as a run at any cut.
+    lone = metrics(work, 'lone', [(0.0, 0.015, 0.015), (0.1, 0.015, 0.015)])
+    reach = pst.up_slope_reach(lone, TIP, DX)
+    check('a lone yield at the free end is no crack', math.isinf(reach), f'reach {reach}')
+
+    stops = metrics(work, 'stops', [(0.0, 2.4, 2.49), (0.1, 1.2, 2.49), (0.2, 1.2, 2.49)])
+    reach = pst.up_slope_reach(stops, TIP, DX)
+    check('an arrested crack reaches where it stopped', reach == 1.2, f'reach {reach} m')
+
+    # The up-slope end at 1.6 m at 0.05 s and 0.2 m at 0.1 s (28 m/s between): from 1.6 to
+    # 0.5 m, passed at 0.05 s and 0.05 + 1.1 / 28 s, interpolated, it runs at 28 m/s.
+    rows = [(0.0, 2.45, 2.49), (0.05, 1.6, 2.49), (0.1, 0.2, 2.49)]
+    speed = pst.front_speed(metrics(work, 'front', rows), 1.6, 0.5)
+    check('front speed interpolated between frames', abs(speed - 28.0) < 1e-9, f'{speed} m/s')
+
+with open(os.path.join(ROOT, 'scenes', 'pst.toml'), 'rb') as f:
+    scene = tomllib.load(f)
+thickness = next(b for b in scene['body'] if b['name'] == 'weak')['thickness']
+softening = next(m for m in scene['material'] if m['name'] == 'weak')['softening']
+check('the scene\'s own thickness needs no override', pst.weak_thickness_overrides(thickness) == [],
+      str(pst.weak_thickness_overrides(thickness)))
+doubled = pst.weak_thickness_overrides(2 * thickness)
+want = [f'body.weak.thickness={2 * thickness}', f'material.weak.softening={2 * softening:g}',
+        f'material.weak.softening_length={2 * thickness}']
+check('twice the thickness: twice the softening, the band at the layer', doubled == want,
+      str(doubled))
+
+sys.exit(1 if failures else 0)
