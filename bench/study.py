@@ -642,10 +642,29 @@ def channel_label(width, wall_friction):
             f"channel {width * 100:g} cm, wall mu {wall_friction:g}")
 
 
+def channel_walls(text):
+    """--walls WIDTH:MU (width in m, 0 for 2D without walls) as (width, mu or None)."""
+    width, _, mu = text.partition(":")
+    return (float(width), None) if float(width) == 0 else (float(width), float(mu))
+
+
+def channel_friction_overrides(friction):
+    """--friction PHI_S PHI_2 D: the column's mu(I) as scene overrides (none: COLUMN_FRICTION)."""
+    if not friction:
+        return []
+    phi_s, phi_2, grain = friction
+    return [f"material.sand.friction_angle={phi_s}",
+            f"material.sand.dynamic_friction_angle={phi_2}",
+            f"material.sand.grain_diameter={grain}"]
+
+
 def channel_study(args, out_dir):
     dx = 0.02 if args.quick else CHANNEL_DX
     aspects = (2.0, 8.0) if args.quick else CHANNEL_ASPECTS
     walls = ((0.0, None), (0.06, 0.4)) if args.quick else CHANNEL_WALLS
+    if args.walls:
+        walls = [channel_walls(w) for w in args.walls]
+    friction = channel_friction_overrides(args.friction)
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for width, mu in walls:
@@ -656,11 +675,12 @@ def channel_study(args, out_dir):
                 with open(scene, "w") as f:
                     f.write(column_scene(dimension, width, aspect, mu))
                 out = os.path.join(work, name)
-                _, summary, _ = run_scene(args, scene, [f"grid.dx={dx}"], out)
+                _, summary, _ = run_scene(args, scene, [f"grid.dx={dx}"] + friction, out)
                 ok = summary["status"] == "ok"
                 value = column_runout(out) if ok else float("nan")
                 reference = column_law(aspect)
                 rows.append({"case": "v7", "aspect": aspect, "model": channel_label(width, mu),
+                             "friction": " ".join(friction),
                              "channel_width": width, "wall_friction": 0.0 if mu is None else mu,
                              "dx": dx, "value": value,
                              "runout_p90": column_runout(out, 0.90) if ok else float("nan"),
@@ -1052,6 +1072,12 @@ def main():
     parser.add_argument("--aspects", nargs="+", type=float, default=list(SLICE_ASPECTS),
                         help="slice: V7 aspect ratios a = H0 / L0 at dx 0.005, 2D and a 2-cell "
                              "slice (default 0.5 1 2 4; a = 1 also at dx 0.01 and 0.0025)")
+    parser.add_argument("--walls", nargs="+", metavar="WIDTH:MU",
+                        help="channel: side walls to run, width in m and Coulomb coefficient "
+                             "(0 for 2D without walls; default the study's six)")
+    parser.add_argument("--friction", nargs=3, type=float, metavar=("PHI_S", "PHI_2", "D"),
+                        help="channel: the column's mu(I), static and dynamic friction angles "
+                             "(degrees) and grain diameter (m) (default COLUMN_FRICTION)")
     parser.add_argument("--chart-only", action="store_true",
                         help="redraw the charts from an existing results.csv")
     args = parser.parse_args()
@@ -1086,8 +1112,9 @@ def main():
                                      "end_time 0.2 ceil(3 sqrt(max(1, a))) s, dx 0.005"},
              "channel": {"v7": column_scene(),
                          "channel": "the same with dimension 3, 8 particles per cell, Coulomb "
-                                    "walls at z = 0 and z = width (CHANNEL_WALLS), a in "
-                                    f"{list(CHANNEL_ASPECTS)}, dx {CHANNEL_DX}"}
+                                    "walls at z = 0 and z = width (CHANNEL_WALLS or --walls "
+                                    f"{args.walls}), a in {list(CHANNEL_ASPECTS)}, dx {CHANNEL_DX}",
+                         "friction": channel_friction_overrides(args.friction) or COLUMN_FRICTION}
              }[args.study]
     with open(os.path.join(out_dir, "run.json"), "w") as f:
         json.dump({"study": args.study, "quick": args.quick, "commit": commit(),
