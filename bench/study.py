@@ -918,9 +918,10 @@ def chart_channel(rows, out_dir):
     bx.set_ylim(0.4, 1.2)
     bx.legend(fontsize="small", loc="lower left")
     bx.grid(True, alpha=0.3)
-    dx = rows[0]["dx"]
+    dx, friction = rows[0]["dx"], rows[0].get("friction")
     fig.suptitle(f"V7 column collapse in 2D and between Coulomb side walls (dx {float(dx):g}, "
-                 "mu(I) fitted in 2D without walls)")
+                 + ("mu(I) fitted in 2D without walls)" if not friction else
+                    friction.replace("material.sand.", "") + ")"))
     fig.tight_layout()
     for ext in ("png", "svg"):
         fig.savefig(os.path.join(out_dir, f"channel.{ext}"))
