@@ -43,6 +43,8 @@ import subprocess
 import sys
 import tempfile
 
+from pst_resolution import up_slope_reach
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 STIFF_BLOCK = """
@@ -394,8 +396,8 @@ def column_runout(out, quantile=0.99):
 
 
 # V8: critical cut length of scenes/pst.toml (flat) by bisection on a 3 m column, as
-# bench/pst_resolution.py: the cut at the right (down-slope) end; it "runs" when the crack reaches
-# x < 0.1 m within 0.2 s. Closed form of
+# bench/pst_resolution.py: the cut at the right (down-slope) end; it "runs" when the crack from it
+# reaches x < 0.1 m within 0.2 s (that script's up_slope_reach reads metrics.csv). Closed form of
 # validation.md V8 with pst.toml's slab and weak layer (Lambda 0.884 m, tau_p 1 kPa, D 0.5 m,
 # rho 250): a_c = Lambda sqrt(2 tau_p / sigma_n) = 1.129 m. A model, not truth (validation.md).
 PST_AC = 1.129
@@ -410,7 +412,7 @@ def pst_critical_cut(args, scene, dx, overrides, work):
     for i in range(PST_BISECTIONS):
         cut = 0.5 * (stays + runs)
         out = os.path.join(work, f"pst-{dx}-{i}")
-        code, summary, metrics = run_scene(
+        _, summary, _ = run_scene(
             args, scene, overrides + ["body.weak.x_range=[0.0, 3.0]",
                                       "body.slab.x_range=[0.0, 3.0]", f"cut.weak.from_x={3.0 - cut}",
                                       f"cut.weak.length={cut}",
@@ -420,8 +422,7 @@ def pst_critical_cut(args, scene, dx, overrides, work):
             status = summary["status"]
         # The cut is at the column's right (down-slope) end, as in the field and scenes/pst.toml:
         # the crack runs towards x = 0.
-        reach = min([float(r["crack_tip_min_x"]) for r in metrics if r["crack_tip_min_x"]] or [3.0])
-        if reach < 0.1:
+        if up_slope_reach(out, 3.0 - cut, dx) < 0.1:
             runs = cut
         else:
             stays = cut
