@@ -8,7 +8,9 @@
 Runs the scene to --end-time (200 frames per second, eta volumes only) for each variant below
 and reports, from summary.json and the eta volumes (read with pyopenvdb):
 - the crack's speed along the 45 degree section (its up-slope end's first passes of x = 10 and
-  x = 5 m, along the slope) and when it reaches the top of the layer (x <= 0.6 m);
+  x = 5 m, along the slope), when it reaches the top of the layer (x <= 0.6 m) and its mean
+  speed along the slope from the up-slope end of the layer that failed in settling (under the
+  snowman) to the top, stalls included (speed_to_top);
 - the process zone at x = 7.5 m: how long after softening starts there (the column's largest
   voxel eta >= 0.01, the paper's crack tip) the layer has softened to a third of its cohesion
   (eta >= 1.0; p0 reaches 0 at eta = 1.445 for slope2d's 88 kg/m^3 layer in 2D), and, in the
@@ -77,6 +79,42 @@ def straight_top():
     points = [[x, round(z0 + (x0 - x), 3) if x < x0 else z] for x, z in points]
     return ["terrain.slope.points=[" + ", ".join(f"[{x}, {z}]" for x, z in points) + "]"]
 
+
+def concave_top(knots, contact_x, radius=0.6):
+    """A profile read from the paper's words (Gaume et al. 2019, sec. 3: "convexities (close to
+    the snowman) ... concavities (top of the slope)"): steepest at the top, easing to a bench,
+    steepening again over a convex roll where the snowman stands, then easing to the flat.
+    `knots` are (x, slope angle in degrees) joined by cosine blends; the profile is integrated
+    every 1 cm, flat from the last knot on, and sampled every 0.5 m to x = 24 m. The snowman
+    rests on the slab (the 0.75 m of base, weak layer and slab, half a cell clear) at contact_x.
+    Returns (overrides, points)."""
+    def angle(x):
+        for (x0, a0), (x1, a1) in zip(knots, knots[1:]):
+            if x <= x1:
+                return a0 + (a1 - a0) * (0.5 - 0.5 * math.cos(math.pi * (x - x0) / (x1 - x0)))
+        return knots[-1][1]
+    step, depth = 0.01, [0.0]
+    for k in range(2400):
+        depth.append(depth[-1] + step * math.tan(math.radians(angle((k + 0.5) * step))))
+    height = [depth[-1] - d for d in depth]  # 0 at x = 24 m, flat beyond
+    points = [[k * 0.5, round(height[50 * k], 3)] for k in range(49)] + [[45.0, 0.0]]
+    slope = math.radians(angle(contact_x))
+    surface = height[int(round(contact_x / step))] + 0.75 / math.cos(slope)
+    gap = radius + 0.025
+    center = [contact_x + math.sin(slope) * gap, surface + math.cos(slope) * gap]
+    return (["terrain.slope.points=[" + ", ".join(f"[{x:g}, {z}]" for x, z in points) + "]",
+             f"body.block.center=[{center[0]:.3f}, {center[1]:.3f}]"], points)
+
+
+# The concave-top profiles measured (2026-12-05, seventeenth session; H 12.8 and 12.7 m): 45
+# degrees at x 1.5-3.5 m, a bench of 30 or 32 degrees at x 8-10 m, a convex roll to 38 or 40
+# degrees where the snowman stands, flat from x 20 or 19 m.
+CONCAVE_TOP = {
+    30: concave_top([(0, 36), (1.5, 45), (3.5, 45), (8, 30), (10, 30), (12.5, 38), (13.5, 38),
+                     (20, 0)], 12.75),
+    32: concave_top([(0, 38), (1.5, 45), (3, 45), (7.5, 32), (9.5, 32), (12, 40), (13, 40),
+                     (19, 0)], 12.5),
+}
 
 # name: (dx, overrides of scenes/slope2d.toml, what it tests)
 VARIANTS = {
@@ -152,6 +190,12 @@ VARIANTS = {
                  "slope's profile"),
     "straight-top": (0.05, straight_top(),
                      "no convexity: the 45 degree section continued to the top (15 m high)"),
+    "concave-top30": (0.05, CONCAVE_TOP[30][0],
+                      "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
+                      "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
+    "concave-top32": (0.05, CONCAVE_TOP[32][0],
+                      "the same with a 32 degree bench and 40 degrees under the snowman "
+                      "(x 12.5 m)"),
     # The PST sweep's layers weak in tension with a high cap (README, Snow: "A layer weak in
     # tension and strong under confinement"), alpha scaled to the 0.2 m layer (x 0.2 / 0.06).
     "weak-B": (0.05, ["material.weak.cohesion_ratio=0.01",
@@ -190,7 +234,11 @@ def run(firn, dx, overrides, out, end_time, threads):
         return json.load(f), time.time() - start
 
 
-def profile_points():
+def profile_points(overrides=()):
+    """The ground profile a run stands on: the scene's, or the one its overrides give."""
+    for o in overrides:
+        if o.startswith("terrain.slope.points="):
+            return json.loads(o.split("=", 1)[1])
     with open(os.path.join(ROOT, "scenes", "slope2d.toml"), "rb") as f:
         return tomllib.load(f)["terrain"][0]["points"]
 
@@ -272,7 +320,6 @@ def main():
         with open(results) as f:
             kept = {row["variant"]: row for row in csv.DictReader(f)}
     rows = []
-    points = profile_points()
     with tempfile.TemporaryDirectory() as work:
         runs = [(name, name, []) for name in args.variants]
         if args.seeds:
@@ -281,6 +328,7 @@ def main():
         for name, variant, seed_override in runs:
             dx, overrides, note = VARIANTS[variant]
             overrides = overrides + seed_override
+            points = profile_points(overrides)
             out = os.path.join(work, name)
             summary, seconds = run(args.firn, dx, overrides, out, args.end_time, args.threads)
             tips = summary["crack_tip_steps"]
@@ -301,6 +349,8 @@ def main():
                 "mean_crack_speed": round(summary["mean_crack_speed"] or 0.0, 1),
                 "section_speed_45deg": round(section_speed, 1) if section_speed else "",
                 "top_time": round(top, 4) if top is not None else "",
+                "speed_to_top": round(along_slope(points, 0.6, summary["settle_overloaded_x_min"])
+                                      / top, 1) if top else "",
                 "softening_lag_s": round(lag, 4) if lag is not None else "",
                 "process_zone_m": round((front - 7.5) * math.sqrt(2.0), 2) if front else "",
                 "fractures_while_running": len(running),
