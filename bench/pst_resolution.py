@@ -5,19 +5,20 @@ at several grid spacings and slope angles, beside the closed form of Gaume et al
     /usr/bin/python3 bench/pst_resolution.py [--dx 0.03 0.02 0.015] [--slopes 0 10 20 30 35]
         [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
         [--speed-column 6] [--speed-cut 0.8] [--bracket 0 0.8] [--steps 5]
-        [--weak-thickness 0.06] [--threads N] [--out DIR]
+        [--weak-thickness 0.06] [--ac-end-time 0.2] [--speed-time-per-metre 0.05]
+        [--threads N] [--out DIR]
 
 For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm; --bracket and
 --steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with
 the cut at the down-slope end, as in the field (criterion "run": the crack from the cut reaches
-the up-slope end within 0.2 s; "onset": it grows more than 0.3 m past the cut; a crack that does
-not reach back to the cut, such as the free up-slope end yielding on its own, counts for
-neither), then the steady crack speed on the full 6 m column (--speed-column) with a 0.8 m cut
-(--speed-cut) at its down-slope end (not with --ac-only), as
-summary.json's mean_crack_speed, as the up-slope end's speed over the column less 0.5 m at each
-end (front_speed) and over its last 4 m before that margin (late_front_speed: on a 12 m column,
-after 6.7 m of travel), from 1000 frames per second. The saw is the scenes'
-(quasi-static unless --set cut.weak.saw="instant"). A slope tilts gravity,
+the up-slope end within 0.2 s, or --ac-end-time; "onset": it grows more than 0.3 m past the cut;
+a crack that does not reach back to the cut, such as the free up-slope end yielding on its own,
+counts for neither), then the steady crack speed on the full 6 m column (--speed-column) with a
+0.8 m cut (--speed-cut) at its down-slope end (not with --ac-only), lasting 0.05 s per metre of
+column (--speed-time-per-metre), as summary.json's mean_crack_speed, as the up-slope end's speed
+over the column less 0.5 m at each end (front_speed) and over its last 4 m before that margin
+(late_front_speed: on a 12 m column, after 6.7 m of travel), from 1000 frames per second. The
+saw is the scenes' (quasi-static unless --set cut.weak.saw="instant"). A slope tilts gravity,
 g (sin psi, -cos psi), so that x runs down the slope. --set passes scene overrides to every run.
 Writes results.csv into bench/results/pst-resolution/ (or --out) and prints a table. The weak
 layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; particles per cell
@@ -124,7 +125,8 @@ def front_speed(out, start, end):
     return (start - end) / (t_end - t_start)
 
 
-def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8)):
+def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8),
+                 end_time=0.2):
     stays, runs = bracket
     seconds = 0.0
     length = 3.0
@@ -133,7 +135,7 @@ def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, brac
         out = os.path.join(work, f"ac-{dx}-{slope}-{i}")
         _, t = run(firn, [f"grid.dx={dx}", gravity(slope), f"body.weak.x_range=[0.0, {length}]",
                           f"body.slab.x_range=[0.0, {length}]", f"cut.weak.from_x={length - cut}",
-                          f"cut.weak.length={cut}", "simulation.end_time=0.2",
+                          f"cut.weak.length={cut}", f"simulation.end_time={end_time}",
                           "simulation.frame_rate=100"], out, extra)
         seconds += t
         reach = up_slope_reach(out, length - cut, dx)
@@ -163,6 +165,13 @@ def main():
                         help="length of the speed run's column, m (default 6)")
     parser.add_argument("--speed-cut", type=float, default=0.8,
                         help="the speed run's cut, m: longer than a_c (default 0.8)")
+    parser.add_argument("--ac-end-time", type=float, default=0.2,
+                        help="how long each bisection run lasts, s: a crack that runs reaches "
+                             "the column's up-slope end within it (default 0.2: 12.5 m/s or "
+                             "faster over the 3 m column; a slab softer than ~2 MPa needs more)")
+    parser.add_argument("--speed-time-per-metre", type=float, default=0.05,
+                        help="the speed run's end time per metre of column, s/m (default 0.05: "
+                             "cracks of 20 m/s or faster cross it)")
     parser.add_argument("--weak-thickness", type=float, default=0.06,
                         help="weak layer thickness in m, its softening scaled (default 0.06)")
     parser.add_argument("--threads", type=int, help="threads per run (default: all cores)")
@@ -183,7 +192,7 @@ def main():
                 if not args.speed_only:
                     stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
                                                      args.criterion, args.steps,
-                                                     tuple(args.bracket))
+                                                     tuple(args.bracket), args.ac_end_time)
                     row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
                                 "a_c_closed_form":
                                     round(closed_form_ac(slope, D_wl=args.weak_thickness), 4),
@@ -196,7 +205,8 @@ def main():
                                                        f"body.slab.x_range=[0.0, {column}]",
                                                        f"cut.weak.from_x={tip}",
                                                        f"cut.weak.length={args.speed_cut}",
-                                                       f"simulation.end_time={0.05 * column}",
+                                                       "simulation.end_time="
+                                                       f"{args.speed_time_per_metre * column}",
                                                        "simulation.frame_rate=1000"],
                                            speed_out, args.overrides)
                     front = front_speed(speed_out, tip - 0.5, 0.5)
