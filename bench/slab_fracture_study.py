@@ -207,7 +207,11 @@ VARIANTS = {
                       "material.weak.initial_p0=27600", "material.weak.softening=1333"],
                "the PST sweep's layer D (beta 0.01, M 0.337, p0 27.6 kPa, alpha 400 on 6 cm)"),
     "fine": (0.025, DROPPED + ["material.weak.softening=250"],
-             "dx 0.025: the shipped scene, alpha for its 6-cell (0.15 m) band"),
+             "dx 0.025: the shipped scene with the dropped block, alpha for its 6-cell (0.15 m) "
+             "band"),
+    "fine-snowman": (0.025, ["material.weak.softening=250"],
+                     "dx 0.025: the shipped scene (the snowman), alpha for its 6-cell (0.15 m) "
+                     "band"),
     "fine-before-alpha250": (0.025, before(["material.weak.softening=250"]),
                              "dx 0.025: the scene before, alpha for a 6-cell (0.15 m) band"),
     "fine-before-alpha250-beta0.3": (0.025, before(["material.weak.softening=250"],
