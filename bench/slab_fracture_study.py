@@ -209,6 +209,10 @@ VARIANTS = {
     "fine": (0.025, DROPPED + ["material.weak.softening=250"],
              "dx 0.025: the shipped scene with the dropped block, alpha for its 6-cell (0.15 m) "
              "band"),
+    "slab-beta0.3": (0.05, WEAKER_SLAB[0.3],
+                     "the shipped scene with a slab of beta 0.3 at the same p0 (sigma_t 8.0 kPa)"),
+    "slab-beta0.2": (0.05, WEAKER_SLAB[0.2],
+                     "the shipped scene with a slab of beta 0.2 at the same p0 (sigma_t 6.4 kPa)"),
     "fine-snowman": (0.025, ["material.weak.softening=250"],
                      "dx 0.025: the shipped scene (the snowman), alpha for its 6-cell (0.15 m) "
                      "band"),
