@@ -108,12 +108,15 @@ def concave_top(knots, contact_x, radius=0.6):
 
 # The concave-top profiles measured (2026-12-05, seventeenth session; H 12.8 and 12.7 m): 45
 # degrees at x 1.5-3.5 m, a bench of 30 or 32 degrees at x 8-10 m, a convex roll to 38 or 40
-# degrees where the snowman stands, flat from x 20 or 19 m.
+# degrees where the snowman stands, flat from x 20 or 19 m; and the first one tried.
 CONCAVE_TOP = {
     30: concave_top([(0, 36), (1.5, 45), (3.5, 45), (8, 30), (10, 30), (12.5, 38), (13.5, 38),
                      (20, 0)], 12.75),
     32: concave_top([(0, 38), (1.5, 45), (3, 45), (7.5, 32), (9.5, 32), (12, 40), (13, 40),
                      (19, 0)], 12.5),
+    # tried first: 45 degrees from the very top, a 24 degree bench, H 13.1 m
+    24: concave_top([(0, 45), (2.5, 45), (8, 24), (10.5, 24), (13.5, 36), (15, 36), (23, 0)],
+                    12.5),
 }
 
 # name: (dx, overrides of scenes/slope2d.toml, what it tests)
@@ -193,6 +196,9 @@ VARIANTS = {
     "concave-top30": (0.05, CONCAVE_TOP[30][0],
                       "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
                       "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
+    "concave-top24": (0.05, CONCAVE_TOP[24][0],
+                      "45 degrees from the top (x 0-2.5 m), a 24 degree bench at x 8-10.5 m, a "
+                      "convex roll to 36 degrees, the snowman at x 12.5 m (33 degrees)"),
     "concave-top32": (0.05, CONCAVE_TOP[32][0],
                       "the same with a 32 degree bench and 40 degrees under the snowman "
                       "(x 12.5 m)"),
