@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """bench/pst_resolution.py's pure parts: the closed form against validation.md V8's example values,
-the bisection's "run" reading of metrics.csv (a crack counts only when it reaches back to the cut:
-a free up-slope end yielding on its own under a steep slope's load is not the cut's crack), the
-up-slope front's speed, and --weak-thickness's overrides read from scenes/pst.toml."""
+the bisection (its simulation replaced), its "run" reading of metrics.csv (a crack counts only
+when it reaches back to the cut: a free up-slope end yielding on its own under a steep slope's
+load is not the cut's crack), the up-slope front's speed, and --weak-thickness's overrides read
+from scenes/pst.toml."""
 import csv
 import importlib.util
 import math
@@ -68,6 +69,46 @@ with tempfile.TemporaryDirectory() as work:
     rows = [(0.0, 2.45, 2.49), (0.05, 1.6, 2.49), (0.1, 0.2, 2.49)]
     speed = pst.front_speed(metrics(work, 'front', rows), 1.6, 0.5)
     check('front speed interpolated between frames', abs(speed - 28.0) < 1e-9, f'{speed} m/s')
+
+# The bisection, with the simulation replaced by a column whose crack runs from any cut of
+# 0.31 m or more (not a bisection point): it must close in on 0.31 m, cut at the down-slope end,
+# and run each simulation for --ac-end-time (a slow crack in a 0.2 s run reads as arrested: a
+# slab of 0.5 MPa read a flat a_c of 0.56-0.60 m that way, 0.19-0.23 m with 0.8 s).
+calls = []
+
+
+def fake_run(firn, overrides, out, extra=()):
+    calls.append(list(overrides) + list(extra))
+    return {}, 1.0
+
+
+def fake_reach(out, tip, dx):
+    cut = 3.0 - tip
+    return 0.0 if cut >= 0.31 else math.inf
+
+
+real_run, real_reach = pst.run, pst.up_slope_reach
+pst.run, pst.up_slope_reach = fake_run, fake_reach
+try:
+    stays, runs, _ = pst.critical_cut('firn', 0.03, 30.0, '/nonexistent', ['k=v'], 'run', 5,
+                                      (0.0, 1.2), end_time=0.8)
+finally:
+    pst.run, pst.up_slope_reach = real_run, real_reach
+bracketed = stays < 0.31 <= runs and runs - stays <= 1.2 / 2 ** 5 + 1e-9
+check('the bisection brackets the critical cut', bracketed,
+      f'{stays}-{runs} m after {len(calls)} runs')
+check('every run lasts --ac-end-time', all('simulation.end_time=0.8' in c for c in calls),
+      str(sorted({o for c in calls for o in c if o.startswith('simulation.end_time')})))
+
+
+def override(run_overrides, key):
+    return float(next(o for o in run_overrides if o.startswith(key + '=')).split('=')[1])
+
+
+check('the cut is at the down-slope end of the 3 m column',
+      all(abs(override(c, 'cut.weak.from_x') + override(c, 'cut.weak.length') - 3.0) < 1e-9
+          for c in calls), f'{len(calls)} runs')
+check('the scene overrides reach every run', all('k=v' in c for c in calls), f'{len(calls)} runs')
 
 with open(os.path.join(ROOT, 'scenes', 'pst.toml'), 'rb') as f:
     scene = tomllib.load(f)
