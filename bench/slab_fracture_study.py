@@ -87,7 +87,7 @@ def concave_top(knots, contact_x, radius=0.6):
     `knots` are (x, slope angle in degrees) joined by cosine blends; the profile is integrated
     every 1 cm, flat from the last knot on, and sampled every 0.5 m to x = 24 m. The snowman
     rests on the slab (the 0.75 m of base, weak layer and slab, half a cell clear) at contact_x.
-    Returns (overrides, points)."""
+    Returns the scene overrides."""
     def angle(x):
         for (x0, a0), (x1, a1) in zip(knots, knots[1:]):
             if x <= x1:
@@ -102,8 +102,8 @@ def concave_top(knots, contact_x, radius=0.6):
     surface = height[int(round(contact_x / step))] + 0.75 / math.cos(slope)
     gap = radius + 0.025
     center = [contact_x + math.sin(slope) * gap, surface + math.cos(slope) * gap]
-    return (["terrain.slope.points=[" + ", ".join(f"[{x:g}, {z}]" for x, z in points) + "]",
-             f"body.block.center=[{center[0]:.3f}, {center[1]:.3f}]"], points)
+    return ["terrain.slope.points=[" + ", ".join(f"[{x:g}, {z}]" for x, z in points) + "]",
+            f"body.block.center=[{center[0]:.3f}, {center[1]:.3f}]"]
 
 
 # The concave-top profiles measured (2026-12-05, seventeenth session; H 12.8 and 12.7 m): 45
@@ -193,13 +193,13 @@ VARIANTS = {
                  "slope's profile"),
     "straight-top": (0.05, straight_top(),
                      "no convexity: the 45 degree section continued to the top (15 m high)"),
-    "concave-top30": (0.05, CONCAVE_TOP[30][0],
+    "concave-top30": (0.05, CONCAVE_TOP[30],
                       "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
                       "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
-    "concave-top24": (0.05, CONCAVE_TOP[24][0],
+    "concave-top24": (0.05, CONCAVE_TOP[24],
                       "45 degrees from the top (x 0-2.5 m), a 24 degree bench at x 8-10.5 m, a "
                       "convex roll to 36 degrees, the snowman at x 12.5 m (33 degrees)"),
-    "concave-top32": (0.05, CONCAVE_TOP[32][0],
+    "concave-top32": (0.05, CONCAVE_TOP[32],
                       "the same with a 32 degree bench and 40 degrees under the snowman "
                       "(x 12.5 m)"),
     # The PST sweep's layers weak in tension with a high cap (README, Snow: "A layer weak in
