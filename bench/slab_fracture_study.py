@@ -69,6 +69,11 @@ def resting_block(radius):
             f"body.block.center=[{12.497 + 0.559 * gap:.3f}, {3.924 + 0.829 * gap:.3f}]"]
 
 
+def points_override(points):
+    """The --set that gives slope2d's ground these (x, z) points; profile_points reads it back."""
+    return "terrain.slope.points=[" + ", ".join(f"[{x:g}, {z:g}]" for x, z in points) + "]"
+
+
 def straight_top():
     """slope2d's profile with its convex top (x < 5.5 m, 25 to 45 degrees) replaced by the
     45 degree line continued up to x = 0 (15.0 m high there): a profile with no convexity, as
@@ -77,7 +82,7 @@ def straight_top():
         points = tomllib.load(f)["terrain"][0]["points"]
     x0, z0 = 5.5, next(z for x, z in points if x == 5.5)
     points = [[x, round(z0 + (x0 - x), 3) if x < x0 else z] for x, z in points]
-    return ["terrain.slope.points=[" + ", ".join(f"[{x}, {z}]" for x, z in points) + "]"]
+    return [points_override(points)]
 
 
 def concave_top(knots, contact_x, radius=0.6):
@@ -102,8 +107,7 @@ def concave_top(knots, contact_x, radius=0.6):
     surface = height[int(round(contact_x / step))] + 0.75 / math.cos(slope)
     gap = radius + 0.025
     center = [contact_x + math.sin(slope) * gap, surface + math.cos(slope) * gap]
-    return ["terrain.slope.points=[" + ", ".join(f"[{x:g}, {z}]" for x, z in points) + "]",
-            f"body.block.center=[{center[0]:.3f}, {center[1]:.3f}]"]
+    return [points_override(points), f"body.block.center=[{center[0]:.3f}, {center[1]:.3f}]"]
 
 
 # The concave-top profiles measured (2026-12-05, seventeenth session; H 12.8 and 12.7 m): 45
