@@ -125,13 +125,26 @@ def front_speed(out, start, end):
     return (start - end) / (t_end - t_start)
 
 
-def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8),
-                 end_time=0.2):
+def bisect_cut(bracket, steps, runs_at):
+    """The critical cut by bisection: runs_at(cut, i) runs the column with that cut (the i-th run)
+    and says whether its crack ran. Returns the last (stays, runs) bracket."""
     stays, runs = bracket
-    seconds = 0.0
-    length = 3.0
     for i in range(steps):
         cut = 0.5 * (stays + runs)
+        if runs_at(cut, i):
+            runs = cut
+        else:
+            stays = cut
+    return stays, runs
+
+
+def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8),
+                 end_time=0.2):
+    seconds = 0.0
+    length = 3.0
+
+    def runs_at(cut, i):
+        nonlocal seconds
         out = os.path.join(work, f"ac-{dx}-{slope}-{i}")
         _, t = run(firn, [f"grid.dx={dx}", gravity(slope), f"body.weak.x_range=[0.0, {length}]",
                           f"body.slab.x_range=[0.0, {length}]", f"cut.weak.from_x={length - cut}",
@@ -139,10 +152,9 @@ def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, brac
                           "simulation.frame_rate=100"], out, extra)
         seconds += t
         reach = up_slope_reach(out, length - cut, dx)
-        if (reach < 0.1) if criterion == "run" else (reach < length - cut - 0.3):
-            runs = cut
-        else:
-            stays = cut
+        return (reach < 0.1) if criterion == "run" else (reach < length - cut - 0.3)
+
+    stays, runs = bisect_cut(bracket, steps, runs_at)
     return stays, runs, seconds
 
 

@@ -43,7 +43,7 @@ import subprocess
 import sys
 import tempfile
 
-from pst_resolution import up_slope_reach
+from pst_resolution import bisect_cut, up_slope_reach
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -406,11 +406,11 @@ PST_BISECTIONS = 5
 
 
 def pst_critical_cut(args, scene, dx, overrides, work):
-    stays, runs = PST_BRACKET
     totals = {"particles": 0, "steps": 0, "particle_steps": 0, "wall_seconds": 0.0}
     status = "ok"
-    for i in range(PST_BISECTIONS):
-        cut = 0.5 * (stays + runs)
+
+    def runs_at(cut, i):
+        nonlocal status
         out = os.path.join(work, f"pst-{dx}-{i}")
         _, summary, _ = run_scene(
             args, scene, overrides + ["body.weak.x_range=[0.0, 3.0]",
@@ -420,16 +420,15 @@ def pst_critical_cut(args, scene, dx, overrides, work):
                                       "output.particles=false", "output.volumes=[]"], out)
         if summary["status"] != "ok":
             status = summary["status"]
-        # The cut is at the column's right (down-slope) end, as in the field and scenes/pst.toml:
-        # the crack runs towards x = 0.
-        if up_slope_reach(out, 3.0 - cut, dx) < 0.1:
-            runs = cut
-        else:
-            stays = cut
         totals["particles"] = summary["particles"]
         totals["steps"] += summary["steps"]
         totals["particle_steps"] += summary["particles"] * summary["steps"]
         totals["wall_seconds"] += summary["wall_seconds"]
+        # The cut is at the column's right (down-slope) end, as in the field and scenes/pst.toml:
+        # the crack runs towards x = 0.
+        return up_slope_reach(out, 3.0 - cut, dx) < 0.1
+
+    stays, runs = bisect_cut(PST_BRACKET, PST_BISECTIONS, runs_at)
     return 0.5 * (stays + runs), f"{stays:.4f}-{runs:.4f}", status, totals
 
 
