@@ -29,9 +29,13 @@ q_t = rho g h sin(psi); k_n = E_oed / t (the layer is confined sideways), k_t = 
 import argparse
 import csv
 import math
+import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import pst_resolution  # noqa: E402  (the closed form, one copy)
 
 GRAVITY = 9.81
 
@@ -242,14 +246,11 @@ def toughness_for_flat_cut(column, flat_ac, ratio, exponent):
     return G, ratio * G
 
 
-def closed_form_ac(slope, E, nu, rho, h, E_wl, nu_wl, t, tau_p=1000.0, **_):
-    """validation.md V8's closed form (Gaume et al. 2017a) for the same column."""
-    s = math.radians(slope)
-    G_wl = E_wl / (2.0 * (1.0 + nu_wl))
-    Lam = math.sqrt(plane_strain_modulus(E, nu) * h * t / G_wl)
-    sigma_n = rho * GRAVITY * h * math.cos(s)
-    tau_g = rho * GRAVITY * h * math.sin(s)
-    return Lam * (-tau_g + math.sqrt(tau_g**2 + 2 * sigma_n * (tau_p - tau_g))) / sigma_n
+def closed_form_ac(slope, E, nu, rho, h, E_wl, nu_wl, t, **_):
+    """validation.md V8's closed form (Gaume et al. 2017a; bench/pst_resolution.py's) for the
+    same column, its shear strength tau_p 1 kPa."""
+    return pst_resolution.closed_form_ac(slope, E=E, nu=nu, rho=rho, D=h, D_wl=t,
+                                         G_wl=E_wl / (2.0 * (1.0 + nu_wl)))
 
 
 def main():

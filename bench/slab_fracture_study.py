@@ -226,6 +226,10 @@ VARIANTS = {
     "fine-snowman": (0.025, ["material.weak.softening=250"],
                      "dx 0.025: the shipped scene (the snowman), alpha for its 6-cell (0.15 m) "
                      "band"),
+    "slab-E2.5": (0.05, ["material.slab.youngs_modulus=2.5e6"],
+                  "the shipped scene with a slab of E 2.5 MPa (c_s 65 m/s; the table's 4.8)"),
+    "slab-E1.25": (0.05, ["material.slab.youngs_modulus=1.25e6"],
+                   "the shipped scene with a slab of E 1.25 MPa (c_s 46 m/s)"),
     "fine-before-alpha250": (0.025, before(["material.weak.softening=250"]),
                              "dx 0.025: the scene before, alpha for a 6-cell (0.15 m) band"),
     "fine-before-alpha250-beta0.3": (0.025, before(["material.weak.softening=250"],

@@ -100,7 +100,7 @@ print(f"mode II alone on 30 deg: a_c {cut:.4f} m, criterion below it at most {ma
 if not (0.5 < cut < column.length and max(below) < 1.0):
     failures.append("mode II alone: first critical cut")
 
-# The closed form reproduces validation.md V8's example values.
+# The closed form (pst_resolution.py's) given the v8-example column: V8's six example values.
 geometry = beam.GEOMETRIES["v8-example"]
 for slope, expected in zip((0, 10, 20, 30, 35, 38), (1.129, 0.865, 0.622, 0.401, 0.300, 0.244)):
     check(f"V8 closed form, {slope} deg", beam.closed_form_ac(slope, **geometry), expected, 2e-3)
