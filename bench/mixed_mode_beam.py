@@ -265,6 +265,10 @@ def main():
                         help="G_IIc / G_Ic (0: mode II alone, inf: mode I alone)")
     parser.add_argument("--exponents", type=float, nargs="+", default=[1.0, 2.0])
     parser.add_argument("--csv", help="write the table here as well")
+    parser.add_argument("--plot", help="draw a_c against slope into this image (matplotlib)")
+    parser.add_argument("--measured", nargs="+", default=[],
+                        help="bench/pst_resolution.py results.csv files whose rows without "
+                             "overrides the plot draws beside the model (Firn's a_c brackets)")
     args = parser.parse_args()
 
     geometry = GEOMETRIES[args.geometry]
@@ -298,7 +302,58 @@ def main():
             writer = csv.writer(f)
             writer.writerow(header)
             writer.writerows([[f"{v:.6g}" for v in row] for row in rows])
+    if args.plot:
+        plot(args.plot, args.slopes, rows, closed, measured_brackets(args.measured),
+             f"{args.geometry}, toughness set by a flat a_c of {args.flat_ac} m")
     return 0
+
+
+def measured_brackets(paths):
+    """(slope, a_c low, a_c high) of the rows without overrides in pst_resolution.py CSVs."""
+    brackets = []
+    for path in paths:
+        with open(path) as f:
+            brackets += [(float(r["slope"]), float(r["a_c_low"]), float(r["a_c_high"]))
+                         for r in csv.DictReader(f) if not r["overrides"]]
+    return sorted(brackets)
+
+
+def plot(path, slopes, rows, closed, measured, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for ratio, exponent, _, _, *cuts_and_ratio in rows:
+        cuts = cuts_and_ratio[:-1]
+        if ratio == 0.0:
+            style, label = dict(color="tab:red", lw=2), "beam model, mode II alone"
+        elif math.isinf(ratio):
+            style, label = dict(color="tab:blue", lw=2), "beam model, mode I alone"
+        else:
+            style = dict(color="tab:gray", lw=0.8, alpha=0.7)
+            label = "beam model, mixed (G_IIc/G_Ic 0.25-4, p 1, 2)"
+        ax.plot(slopes, cuts, label=label, **style)
+    ax.plot(slopes, closed, "k--", label="closed form (V8, Gaume et al. 2017a)")
+    if 0.0 in slopes:  # V8's gate asks for this trend: the closed form through the flat a_c
+        flat = rows[0][4 + slopes.index(0.0)] / closed[slopes.index(0.0)]
+        ax.plot(slopes, [flat * a for a in closed], "k:",
+                label="closed form scaled to the flat a_c (V8's trend)")
+    if measured:
+        s, lo, hi = np.array(measured).T
+        ax.errorbar(s, 0.5 * (lo + hi), yerr=0.5 * (hi - lo), fmt="o", color="tab:green",
+                    capsize=4, label="Firn, dx 0.03 (bisection bracket)")
+    handles, labels = ax.get_legend_handles_labels()
+    unique = dict(zip(labels, handles))
+    ax.legend(unique.values(), unique.keys(), fontsize=8)
+    ax.set_xlabel("slope (deg); negative: the cut at the up-slope end")
+    ax.set_ylabel("critical cut length a_c (m)")
+    ax.set_ylim(0, 1.5)
+    ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
