@@ -18,7 +18,8 @@ interface of V8's closed form (in this geometry), mode I alone the compressive c
 
     /usr/bin/python3 bench/mixed_mode_beam.py [--geometry firn-pst|v8-example] [--flat-ac 0.5125]
                      [--slopes 0 10 20 30 35] [--toughness-ratios 0 0.5 1 2 4 inf]
-                     [--exponents 1 2] [--csv FILE]
+                     [--exponents 1 2] [--slab-moduli E ...] [--csv FILE] [--plot PNG]
+                     [--measured RESULTS_CSV ...]
 
 Equations (x down-slope, z into the snowpack; u, w, psi the mid-plane's axial displacement,
 deflection and rotation; the lower face moves by u + h psi / 2): from the potential energy
@@ -265,6 +266,9 @@ def main():
                         help="G_IIc / G_Ic (0: mode II alone, inf: mode I alone)")
     parser.add_argument("--exponents", type=float, nargs="+", default=[1.0, 2.0])
     parser.add_argument("--csv", help="write the table here as well")
+    parser.add_argument("--slab-moduli", type=float, nargs="+", default=[],
+                        help="also give a_c for these slab E (Pa), the toughness kept from the "
+                             "geometry's own E: what one calibration predicts for other slabs")
     parser.add_argument("--plot", help="draw a_c against slope into this image (matplotlib)")
     parser.add_argument("--measured", nargs="+", default=[],
                         help="bench/pst_resolution.py results.csv files whose rows without "
@@ -295,6 +299,11 @@ def main():
             row = [ratio, exponent, G_Ic, G_IIc] + cuts + [ratio30]
             rows.append(row)
             print(" | ".join(f"{v:.4g}" for v in row))
+            for E in args.slab_moduli:
+                slab = Column(**dict(geometry, E=E))
+                print(f"    slab E {E:.3g} Pa: " + ", ".join(
+                    f"{s:g} deg {critical_cut(slab, s, G_Ic, G_IIc, exponent):.4g}"
+                    for s in args.slopes))
     closed_ratio = closed_form_ac(30, **geometry) / closed_form_ac(0, **geometry)
     print(f"closed form's ratio a_c(30)/a_c(0): {closed_ratio:.3f}")
     if args.csv:
