@@ -132,9 +132,10 @@ class Solution:
     def __init__(self, column, slope_deg, cut, max_segment=0.25):
         if not 0.0 <= cut < column.length:
             raise ValueError(f"cut {cut} m outside [0, {column.length}) m")
-        self.column, self.slope, self.cut = column, slope_deg, cut
+        self.column = column
         tip = column.length - cut
         nodes = list(np.linspace(0.0, tip, max(1, math.ceil(tip / max_segment)) + 1))
+        self.tip_index = len(nodes) - 1
         if cut > 0.0:
             nodes += list(np.linspace(tip, column.length,
                                       max(1, math.ceil(cut / max_segment)) + 1)[1:])
@@ -155,19 +156,17 @@ class Solution:
             K[rows, 6 * i + 6:6 * i + 12] = -np.eye(6)
             r[rows] = -p
         self.states = np.linalg.solve(K, r).reshape(segments + 1, 6)
-        self.tip_index = int(np.argmin(np.abs(self.nodes - tip)))
 
     def segments(self, per_segment=40):
         """Per segment: whether it rests on the springs, and x and z at points along it (both
         ends included), for energies and equilibrium checks."""
         for i, (M, b) in enumerate(self.systems):
             x0, x1 = self.nodes[i], self.nodes[i + 1]
-            offsets = np.linspace(0.0, x1 - x0, per_segment + 1)
-            zs = []
-            for s in offsets:
-                Phi, p = transfer(M, b, s)
-                zs.append(Phi @ self.states[i] + p)
-            yield x1 <= self.tip + 1e-12, x0 + offsets, np.array(zs)
+            Phi, p = transfer(M, b, (x1 - x0) / per_segment)  # one step, applied per_segment times
+            zs = [self.states[i]]
+            for _ in range(per_segment):
+                zs.append(Phi @ zs[-1] + p)
+            yield x1 <= self.tip + 1e-12, np.linspace(x0, x1, per_segment + 1), np.array(zs)
 
     def spring_stresses(self, z):
         """Normal (compression > 0) and shear stress in the springs under states z."""
