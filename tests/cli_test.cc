@@ -876,6 +876,14 @@ TEST_CASE("firn check names the slip surface, its bodies and its friction", "[cl
                                    "body.slab.slip_friction=0.4"},
                                   dir);
     CHECK(given.out.find("bodies above: \"slab\"; friction 0.4 (scene)\n") != std::string::npos);
+    // XPIC keeps one velocity field: a slip surface with it is an error at the body's key.
+    const Outcome xpic = runFirn({"check", scene, "--set", "grid.transfer=\"xpic\"", "--set",
+                                  "body.slab.slides_on=\"weak\""},
+                                 dir);
+    INFO(xpic.err);
+    CHECK(xpic.code != 0);
+    CHECK(xpic.err.find("slides_on: a slip surface needs grid.transfer \"apic\", \"pic\" or "
+                        "\"flip\" (\"xpic\" keeps one velocity field)") != std::string::npos);
 }
 
 TEST_CASE("firn check notes a weak layer fewer than 4 cells thick", "[cli]") {

@@ -322,6 +322,7 @@ x_range = [0, 5]
 TEST_CASE("Enumerations print as the scene spells them", "[scene]") {
     CHECK(std::string(toString(Transfer::Apic)) == "apic");
     CHECK(std::string(toString(Transfer::Flip)) == "flip");
+    CHECK(std::string(toString(Transfer::Xpic)) == "xpic");
     CHECK(std::string(toString(MaterialModel::WeakLayer)) == "weak_layer");
     CHECK(std::string(toString(MaterialModel::Granular)) == "granular");
 }
@@ -660,4 +661,13 @@ TEST_CASE("The as-run TOML reads back as the same scene (fuzzing found two ways 
     const SceneDesc again = parseScene(scene.resolvedToml, kPath);
     CHECK(again.simulation.name == "\nly");
     CHECK(again.resolvedToml == scene.resolvedToml);
+}
+
+TEST_CASE("XPIC's order is an integer from 1 to 16, 2 by default", "[scene][errors]") {
+    CHECK(parseScene("[grid]\ntransfer = \"xpic\"\n", kPath).grid.xpicOrder == 2);
+    const SceneDesc fourth = parseScene("[grid]\ntransfer = \"xpic\"\nxpic_order = 4\n", kPath);
+    CHECK(fourth.grid.transfer == Transfer::Xpic);
+    CHECK(fourth.grid.xpicOrder == 4);
+    CHECK(errorOf("[grid]\nxpic_order = 0\n") ==
+          "scenes/test.toml:2:14: error: grid.xpic_order: must be in [1, 16], got 0");
 }

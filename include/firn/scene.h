@@ -16,7 +16,7 @@ namespace firn {
 
 using Vec3d = std::array<double, 3>;
 
-enum class Transfer { Apic, Pic, Flip };
+enum class Transfer { Apic, Pic, Flip, Xpic };
 enum class MaterialModel { Elastic, Snow, WeakLayer, Granular };
 enum class TerrainShape { Plane, Profile, Heightfield };
 enum class Boundary { Friction, Slip, Sticky, Voellmy };
@@ -67,6 +67,9 @@ struct GridDesc {
     /// s; > 0 replaces flipBlend by exp(-dt / flipRelaxationTime) each step, so that the
     /// particles' noise relaxes toward the grid velocity at a rate per second, not per step.
     double flipRelaxationTime = 0.0;
+    /// XPIC(m) (Hammerquist & Nairn 2017): m - 1 extra particle round trips a step filter the
+    /// particles' velocity toward its projection on the grid; 1 is PIC.
+    int xpicOrder = 2;
     double cfl = 0.4;
     double maxDt = 1.0e-3; ///< s
     double jitter = 0.5;   ///< fraction of a sub-cell by which seeds are jittered

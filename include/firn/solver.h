@@ -30,6 +30,7 @@ struct World {
     Transfer transfer = Transfer::Apic;
     float flipBlend = 0.95f;
     float flipRelaxationTime = 0.f; ///< s; > 0: blend exp(-dt / time) (GridDesc)
+    int xpicOrder = 2;              ///< XPIC(m)'s m (GridDesc)
     float cfl = 0.4f;
     float maxDt = 1e-3f;
     Vec3f gravity = Vec3f(0.f, -9.81f, 0.f);

@@ -1,7 +1,8 @@
-// Particle <-> grid transfers with quadratic B-splines: APIC (Jiang et al. 2015), PIC, and the
-// PIC/FLIP blend. Stress enters P2G through the MLS-MPM form of the force (Hu et al. 2018):
-// the nodal impulse -dt V0 tau grad w uses grad w = w D^-1 (x_i - x_p), which is exact for the
-// affine part of quadratic B-splines and lets momentum and force share one affine matrix.
+// Particle <-> grid transfers with quadratic B-splines: APIC (Jiang et al. 2015), PIC, the
+// PIC/FLIP blend, and XPIC(m) (Hammerquist & Nairn 2017). Stress enters P2G through the MLS-MPM
+// form of the force (Hu et al. 2018): the nodal impulse -dt V0 tau grad w uses grad w = w D^-1 (x_i
+// - x_p), which is exact for the affine part of quadratic B-splines and lets momentum and force
+// share one affine matrix.
 //
 // Parallel over particle leaves with TBB and without atomics or locks: each particle leaf
 // scatters into its own padded 10^d block, then each grid leaf sums the (up to 2^d) padded
@@ -28,7 +29,13 @@ struct TransferParams {
     /// to and read from the upper field; particles of this material tell whether the layer under
     /// a node still bonds the fields. -1: one field.
     int slipMaterial = -1;
+    int xpicOrder = 2; ///< XPIC(m)'s m; 1 is PIC
 };
+
+/// FLIP and XPIC update particle velocities from a grid reference (Grid::aux channel 0..2).
+inline bool keepsReference(Transfer transfer) {
+    return transfer == Transfer::Flip || transfer == Transfer::Xpic;
+}
 
 /// Per node channels of Grid::aux: the FLIP reference velocity of the (lower) field, and with a
 /// slip surface the upper field's mass, momentum (velocity after the update), FLIP reference and
@@ -47,6 +54,8 @@ struct AuxLayout {
 /// Reusable per-leaf padded blocks of the scatter phase.
 struct TransferScratch {
     std::vector<float> padded;
+    std::vector<float> xpicTerm, xpicSum; ///< XPIC's grid fields, 3 per node
+    std::vector<Vec3f> xpicAtParticles;   ///< XPIC's grid term interpolated to the particles
 };
 
 /// P2G: grid mass, momentum plus stress impulse (APIC, PIC) in Grid::velocity; for FLIP the
@@ -56,7 +65,14 @@ struct TransferScratch {
 void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
                      TransferScratch& scratch);
 
-/// G2P: particle velocity (APIC/PIC/FLIP), affine matrix C (the velocity gradient, also used
+/// XPIC(m), between the grid update and G2P: turns the reference in Grid::aux from the
+/// transferred velocity v^L into v^L - v*, v* = sum_{k<m} (I - S+ S)^k v^L (S: grid to
+/// particles, S+: mass-weighted particles to grid), so that G2P's increment S (v - reference)
+/// is XPIC's particle velocity S (v - v^L + v*). One field only (no slip surface).
+void xpicReference(const ParticleSet& particles, Grid& grid, const TransferParams& params,
+                   TransferScratch& scratch);
+
+/// G2P: particle velocity (APIC/PIC/FLIP/XPIC), affine matrix C (the velocity gradient, also used
 /// for F), position x += dt v_pic and trial F = (I + dt C) F. Returns the largest speed.
 float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params);
 

@@ -723,6 +723,7 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
         else
             out << ", blend " << scene.grid.flipBlend;
     }
+    if (scene.grid.transfer == Transfer::Xpic) out << ", order " << scene.grid.xpicOrder;
     out << "\n";
     for (std::size_t m = 0; m < scene.materials.size(); ++m)
         out << describeMaterial(scene.materials[m], scene.grid.dx)

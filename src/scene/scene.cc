@@ -18,8 +18,10 @@ namespace firn {
 namespace scene {
 namespace {
 
-const Named<Transfer> kTransfers[] = {
-    {"apic", Transfer::Apic}, {"pic", Transfer::Pic}, {"flip", Transfer::Flip}};
+const Named<Transfer> kTransfers[] = {{"apic", Transfer::Apic},
+                                      {"pic", Transfer::Pic},
+                                      {"flip", Transfer::Flip},
+                                      {"xpic", Transfer::Xpic}};
 const Named<MaterialModel> kModels[] = {{"elastic", MaterialModel::Elastic},
                                         {"snow", MaterialModel::Snow},
                                         {"weak_layer", MaterialModel::WeakLayer},
@@ -214,6 +216,7 @@ void readGrid(TableReader& r, GridDesc& grid) {
                      "give one");
         if (blendSet) grid.flipRelaxationTime = 0.0;
     }
+    r.integer("xpic_order", grid.xpicOrder, Range::closed(1, 16));
     r.real("cfl", grid.cfl, Range::openClosed(0.0, 10.0));
     r.real("max_dt", grid.maxDt, Range::positive());
     r.real("jitter", grid.jitter, Range::closed(0.0, 1.0));
@@ -498,11 +501,14 @@ void readPolygon(TableReader& r, BodyDesc& body, const std::vector<BodyDesc>& ea
 // slides_on: the body lies above a slip surface on an earlier weak-layer body (one per scene);
 // slip_friction: that surface's friction once the layer has collapsed.
 void readSlipSurface(TableReader& r, BodyDesc& body, const std::vector<MaterialDesc>& materials,
-                     const std::vector<BodyDesc>& earlier) {
+                     const std::vector<BodyDesc>& earlier, Transfer transfer) {
     if (!r.string("slides_on", body.slidesOn)) {
         if (r.has("slip_friction")) r.failAt("slip_friction", "needs slides_on");
         return;
     }
+    if (transfer == Transfer::Xpic)
+        r.failAt("slides_on", "a slip surface needs grid.transfer \"apic\", \"pic\" or \"flip\" "
+                              "(\"xpic\" keeps one velocity field)");
     auto isWeakLayer = [&](const BodyDesc& b) {
         return !b.name.empty() &&
                materials[std::size_t(b.materialIndex)].model == MaterialModel::WeakLayer;
@@ -541,7 +547,7 @@ int resolveMaterial(TableReader& r, const std::string& name,
 }
 
 BodyDesc readBody(TableReader& r, const std::vector<MaterialDesc>& materials,
-                  const std::vector<BodyDesc>& earlier) {
+                  const std::vector<BodyDesc>& earlier, Transfer transfer) {
     BodyDesc body;
     body.loc = r.headerLoc();
     r.require({"material", "shape"});
@@ -558,7 +564,7 @@ BodyDesc readBody(TableReader& r, const std::vector<MaterialDesc>& materials,
     if (body.shape == BodyShape::Sphere) readSphere(r, body);
     if (body.shape == BodyShape::Layer) readLayer(r, body, earlier);
     if (body.shape == BodyShape::Polygon) readPolygon(r, body, earlier);
-    readSlipSurface(r, body, materials, earlier);
+    readSlipSurface(r, body, materials, earlier, transfer);
     rejectOtherShapeKeys(r, body.shape, kBodyShapeKeys, kBodyShapes);
     r.finish();
     return body;
@@ -661,7 +667,7 @@ SceneDesc readScene(const toml::table& root, const std::string& path) {
         scene.terrains.push_back(readTerrain(entry, terrainNames));
     });
     forEachEntry(r, "body", true, [&](TableReader& entry) {
-        scene.bodies.push_back(readBody(entry, scene.materials, scene.bodies));
+        scene.bodies.push_back(readBody(entry, scene.materials, scene.bodies, scene.grid.transfer));
     });
     forEachEntry(r, "cut", false,
                  [&](TableReader& entry) { scene.cuts.push_back(readCut(entry, scene.bodies)); });

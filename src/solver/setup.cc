@@ -506,6 +506,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
     w.transfer = scene.grid.transfer;
     w.flipBlend = float(scene.grid.flipBlend);
     w.flipRelaxationTime = float(scene.grid.flipRelaxationTime);
+    w.xpicOrder = scene.grid.xpicOrder;
     w.cfl = float(scene.grid.cfl);
     w.maxDt = float(scene.grid.maxDt);
     w.gravity = toVec3f(scene.simulation.gravity);

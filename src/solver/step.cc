@@ -115,7 +115,7 @@ Vec3f slipNormal(const World& world, const Vec3f& xn) {
 
 void updateGridVelocity(World& world, float dt) {
     Grid& grid = world.grid;
-    const bool flip = world.transfer == Transfer::Flip;
+    const bool flip = keepsReference(world.transfer);
     const AuxLayout layout{flip, world.slipMaterial >= 0};
     const int stride = layout.channels();
     const int nk = world.dim == 3 ? kLeafDim : 1;
@@ -277,13 +277,13 @@ void step(World& world, double dt, StepTimings* timings) {
     const float flipBlend = world.flipRelaxationTime > 0.f
                                 ? std::exp(-dtf / world.flipRelaxationTime)
                                 : world.flipBlend;
-    const TransferParams params{world.dim,      world.dx,  dtf,
-                                world.transfer, flipBlend, world.slipMaterial};
+    const TransferParams params{world.dim,          world.dx,       dtf, world.transfer, flipBlend,
+                                world.slipMaterial, world.xpicOrder};
     {
         StageClock clock(timings ? &timings->p2g : nullptr);
         world.grid.rebuild(
             world.particles,
-            AuxLayout{world.transfer == Transfer::Flip, world.slipMaterial >= 0}.channels());
+            AuxLayout{keepsReference(world.transfer), world.slipMaterial >= 0}.channels());
         particlesToGrid(world.particles, world.grid, params, world.scratch);
     }
     {
@@ -291,7 +291,11 @@ void step(World& world, double dt, StepTimings* timings) {
         updateGridVelocity(world, dtf);
     }
     {
-        StageClock clock(timings ? &timings->g2p : nullptr);
+        StageClock clock(timings ? &timings->g2p : nullptr); // XPIC's round trips count here
+        if (world.transfer == Transfer::Xpic) {
+            xpicReference(world.particles, world.grid, params, world.scratch);
+            world.stickyWalls.mirror(world.grid, true); // the sticky ghosts' reference again
+        }
         world.maxSpeed = gridToParticles(world.particles, world.grid, params);
     }
     applyBasalDrag(world, dtf);

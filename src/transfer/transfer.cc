@@ -192,15 +192,15 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
     });
 }
 
-/// Copies 3 floats per node (from channel `channelOffset` of `sourceChannels` per node) of the
-/// 2^Dim blocks around particle leaf l into a padded local array (10^Dim nodes of `channels`
-/// floats), so that G2P reads without per-node block lookups.
-template <int Dim>
-void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const Grid&, std::size_t),
-                  int sourceChannels, int channelOffset, int channels, float* out) {
+/// Copies 3 floats per node (from channel `channelOffset` of `sourceChannels` per node; field(b)
+/// is block b's first node) of the 2^Dim blocks around particle leaf l into a padded local array
+/// (10^Dim nodes of `channels` floats), so that G2P reads without per-node block lookups.
+template <int Dim, typename FieldFn>
+void gatherPadded(const Grid& grid, std::size_t l, FieldFn&& field, int sourceChannels,
+                  int channelOffset, int channels, float* out) {
     const auto& blocks = grid.blocksOfParticleLeaf()[l];
     for (int o = 0; o < (1 << Dim); ++o) {
-        const float* src = field(grid, std::size_t(blocks[o]));
+        const float* src = field(std::size_t(blocks[o]));
         const int kEnd = Dim == 3 ? overlapEnd(o, 2) : 1;
         for (int i = 0; i < overlapEnd(o, 0); ++i)
             for (int j = 0; j < overlapEnd(o, 1); ++j)
@@ -212,13 +212,6 @@ void gatherPadded(const Grid& grid, std::size_t l, const float* (*field)(const G
                     for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
                 }
     }
-}
-
-const float* velocityField(const Grid& g, std::size_t b) {
-    return g.velocity(b);
-}
-const float* auxField(const Grid& g, std::size_t b) {
-    return g.aux(b);
 }
 
 Mat3f toMatrix(const Sym3f& t) {
@@ -294,7 +287,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
     }
     const float dInv = apicInverseD(1.f / params.dx);
     const bool apic = params.transfer == Transfer::Apic;
-    if (params.transfer != Transfer::Flip) {
+    if (!keepsReference(params.transfer)) {
         scatterLeaves<Dim, 4, true, 1>(
             ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
                 const float m = ps.mass[i];
@@ -314,8 +307,8 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         });
         return;
     }
-    // FLIP keeps the transferred momentum and the stress impulse apart: the grid velocity
-    // before forces is the reference of the FLIP increment.
+    // FLIP and XPIC keep the transferred momentum and the stress impulse apart: the grid
+    // velocity before forces is the reference of their increment.
     scatterLeaves<Dim, 7, true, 4>(
         ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
             const float m = ps.mass[i];
@@ -369,8 +362,11 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const float invDx = 1.f / ps.dx;
     const float cScale = apicInverseD(invDx) * ps.dx; // C = 4/dx^2 B with offsets in grid units
     const float dt = params.dt, flip = params.flipBlend;
+    const bool xpic = params.transfer == Transfer::Xpic;
     const AuxLayout layout{Flip, params.slipMaterial >= 0};
     const int auxStride = layout.channels();
+    const auto velocityField = [&grid](std::size_t b) { return grid.velocity(b); };
+    const auto auxField = [&grid](std::size_t b) { return grid.aux(b); };
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), 0.f,
         [&](const auto& r, float maxSpeed) {
@@ -408,7 +404,10 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                                               dvFlip);
                     const Mat3f C = cScale * B;
                     ps.C[i] = C;
-                    ps.v[i] = Flip ? Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic) : vPic;
+                    // XPIC: the reference is v^L - v* (xpicReference), the increment its update.
+                    ps.v[i] = !Flip  ? vPic
+                              : xpic ? dvFlip
+                                     : Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic);
                     ps.x[i] += dt * vPic;
                     // Fe <- (I + dt C) Fe, as H <- H + dt C (I + H) so that a strain increment
                     // far below float spacing at 1 is kept (ParticleSet::H).
@@ -425,6 +424,87 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
             return maxSpeed;
         },
         [](float a, float b) { return (a != a || b != b) ? a + b : std::max(a, b); });
+}
+
+/// S w at a particle: a 3-channel node field of the padded block interpolated.
+template <int Dim> inline Vec3f interpolate(const Stencil& s, const float* local) {
+    constexpr int nc = Dim == 3 ? 3 : 1;
+    Vec3f sum = Vec3f::Zero();
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            const float wab = s.w[0][a] * s.w[1][b];
+            for (int c = 0; c < nc; ++c) {
+                const float* g =
+                    local + 3 * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c);
+                const float w = Dim == 3 ? wab * s.w[2][c] : wab;
+                sum += w * Vec3f(g[0], g[1], g[2]);
+            }
+        }
+    return sum;
+}
+
+/// XPIC(m) (Hammerquist & Nairn 2017): v* = sum_{k<m} (I - S+ S)^k v^L, term by term. S+ S is a
+/// round trip through the particles that P2G scattered (every leaf not in deep sleep), with
+/// their mass scattered beside the momentum so that S+ divides by the same mass it sums (the
+/// sticky walls' fold has added mass to the grid's). The reference becomes v^L - v*, which is
+/// minus the sum of the terms k >= 1.
+template <int Dim>
+void xpic(const ParticleSet& ps, Grid& grid, const TransferParams& params,
+          TransferScratch& scratch) {
+    const std::size_t blocks = grid.blockCount();
+    std::vector<float>& term = scratch.xpicTerm;
+    std::vector<float>& sum = scratch.xpicSum;
+    term.resize(blocks * kLeafNodes * 3);
+    sum.assign(blocks * kLeafNodes * 3, 0.f);
+    const int stride = grid.auxChannels();
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 16), [&](const auto& r) {
+        for (std::size_t b = r.begin(); b != r.end(); ++b)
+            for (int n = 0; n < kLeafNodes; ++n)
+                for (int c = 0; c < 3; ++c)
+                    term[(b * kLeafNodes + n) * 3 + c] = grid.aux(b)[stride * n + c];
+    });
+    std::vector<Vec3f>& atParticles = scratch.xpicAtParticles;
+    atParticles.resize(ps.size());
+    const float invDx = 1.f / ps.dx;
+    const auto termField = [&term](std::size_t b) { return term.data() + b * kLeafNodes * 3; };
+    for (int k = 1; k < params.xpicOrder; ++k) {
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
+                float local[paddedNodes<Dim>() * 3];
+                for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                    if (ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
+                    gatherPadded<Dim>(grid, l, termField, 3, 0, 3, local);
+                    for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i)
+                        atParticles[i] =
+                            interpolate<Dim>(stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]), local);
+                }
+            });
+        scatterLeaves<Dim, 4, false, 0>(ps, scratch.padded, true,
+                                        [&](std::uint32_t i, float* value, Mat3f&) {
+                                            const float m = ps.mass[i];
+                                            value[0] = m;
+                                            for (int c = 0; c < 3; ++c)
+                                                value[1 + c] = m * atParticles[i][c];
+                                            return false;
+                                        });
+        mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+            for (int n = 0; n < kLeafNodes; ++n) {
+                const float m = acc[4 * n];
+                float* t = term.data() + (b * kLeafNodes + n) * 3;
+                float* total = sum.data() + (b * kLeafNodes + n) * 3;
+                for (int c = 0; c < 3; ++c) {
+                    t[c] = m > 0.f ? t[c] - acc[4 * n + 1 + c] / m : 0.f;
+                    total[c] += t[c];
+                }
+            }
+        });
+    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 16), [&](const auto& r) {
+        for (std::size_t b = r.begin(); b != r.end(); ++b)
+            for (int n = 0; n < kLeafNodes; ++n)
+                for (int c = 0; c < 3; ++c)
+                    grid.aux(b)[stride * n + c] = -sum[(b * kLeafNodes + n) * 3 + c];
+    });
 }
 
 template <int Dim>
@@ -471,8 +551,14 @@ void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferPar
     p2g<3>(particles, grid, params, scratch);
 }
 
+void xpicReference(const ParticleSet& particles, Grid& grid, const TransferParams& params,
+                   TransferScratch& scratch) {
+    if (params.dim == 2) return xpic<2>(particles, grid, params, scratch);
+    xpic<3>(particles, grid, params, scratch);
+}
+
 float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params) {
-    const bool flip = params.transfer == Transfer::Flip;
+    const bool flip = keepsReference(params.transfer);
     if (params.dim == 2)
         return flip ? g2p<2, true>(particles, grid, params)
                     : g2p<2, false>(particles, grid, params);

@@ -94,8 +94,8 @@ TEST_CASE("the state after 0.1 s is bitwise the same for 1 and 2 threads", "[det
         const char* transfer;
         bool sticky;
     };
-    for (const Case c :
-         {Case{"apic", false}, Case{"flip", false}, Case{"apic", true}, Case{"flip", true}}) {
+    for (const Case c : {Case{"apic", false}, Case{"flip", false}, Case{"apic", true},
+                         Case{"flip", true}, Case{"xpic", true}}) {
         const SceneDesc scene = test::sceneFromText(sceneText(c.transfer, c.sticky), "determinism");
         auto one = runWithThreads(scene, 1);
         auto two = runWithThreads(scene, 2);
