@@ -2,7 +2,8 @@
 // APIC, dx 0.02). Reports particle-steps per second for 1 and N threads, the speed-up, bytes
 // per particle and the time share of each stage. Not a test: numbers, not assertions.
 //
-//   build/firn_bench [--particles-side CELLS] [--steps N] [--threads N] [--transfer apic|pic|flip]
+//   build/firn_bench [--particles-side CELLS] [--steps N] [--threads N] [--transfer
+//   apic|pic|flip|xpic]
 #include "compare_openvdb.h"
 
 #include <firn/scene.h>
@@ -151,7 +152,7 @@ Options parseOptions(int argc, char** argv) {
             o.domain = std::atof(value().c_str());
         else {
             std::fprintf(stderr, "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
-                                 "[--transfer apic|pic|flip] [--model elastic|snow|granular] "
+                                 "[--transfer apic|pic|flip|xpic] [--model elastic|snow|granular] "
                                  "[--offset M] [--domain SCALE]\n");
             std::exit(a == "--help" ? 0 : 1);
         }

@@ -127,7 +127,10 @@ TRANSFERS = {"apic": ["grid.transfer=apic"], "pic": ["grid.transfer=pic"],
              "flip95": ["grid.transfer=flip", "grid.flip_blend=0.95"],
              "flip99": ["grid.transfer=flip", "grid.flip_blend=0.99"],
              # The slope scenes' transfer: FLIP, its noise relaxed over 1 s.
-             "flip_tau1": ["grid.transfer=flip", "grid.flip_relaxation_time=1.0"]}
+             "flip_tau1": ["grid.transfer=flip", "grid.flip_relaxation_time=1.0"],
+             # XPIC(m), Hammerquist & Nairn 2017: m - 1 extra round trips a step.
+             "xpic2": ["grid.transfer=xpic", "grid.xpic_order=2"],
+             "xpic4": ["grid.transfer=xpic", "grid.xpic_order=4"]}
 DRIFT_LIMIT = 0.05  # of the energy scale: kinetic + released potential energy
 
 SLIDING_BLOCK = """
@@ -202,7 +205,7 @@ def classify(code, summary, rows):
 def stability(args, out_dir):
     cfls = [0.2, 0.4, 2.0] if args.quick else [0.1, 0.2, 0.4, 0.7, 1.0, 1.5, 2.0]
     ppcs = [4] if args.quick else [1, 4, 9]
-    transfers = ["apic", "flip99"] if args.quick else list(TRANSFERS)
+    transfers = ["apic", "flip99"] if args.quick else (args.transfers or list(TRANSFERS))
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for case, (_, text) in STABILITY_CASES.items():
@@ -224,6 +227,9 @@ def stability(args, out_dir):
                                      "overrides": " ".join(overrides)})
                         print(f"{case:5s} {transfer:7s} ppc {ppc} cfl {cfl:4.2f}: {outcome}",
                               flush=True)
+    path = os.path.join(out_dir, "results.csv")
+    if args.transfers and not args.quick and os.path.exists(path):  # keep the other transfers'
+        rows = [r for r in read_rows(path) if r["transfer"] not in transfers] + rows
     return rows
 
 
@@ -437,7 +443,8 @@ def pst_critical_cut(args, scene, dx, overrides, work):
 METHODS = {"apic": ("apic", 0.4, 4), "pic": ("pic", 0.4, 4), "flip95": ("flip95", 0.4, 4),
            "flip99": ("flip99", 0.4, 4), "apic cfl 0.2": ("apic", 0.2, 4),
            "apic cfl 0.8": ("apic", 0.8, 4), "apic ppc 1": ("apic", 0.4, 1),
-           "apic ppc 9": ("apic", 0.4, 9), "flip_tau1": ("flip_tau1", 0.4, 4)}
+           "apic ppc 9": ("apic", 0.4, 9), "flip_tau1": ("flip_tau1", 0.4, 4),
+           "xpic2": ("xpic2", 0.4, 4), "xpic4": ("xpic4", 0.4, 4)}
 
 # Cases: what is measured, its reference, and the sweep (full; quick).
 CASES = {
@@ -799,7 +806,7 @@ def chart_accuracy(rows, out_dir):
     conv = {(c["case"], c["method"]): c for c in convergence(rows)}
     cases = [c for c in CASES if any(r["case"] == c for r in ok)]  # V1 first: all methods
     methods = list(METHODS)
-    colours = {m: plt.cm.tab10(i) for i, m in enumerate(methods)}
+    colours = {m: plt.cm.tab20(i) for i, m in enumerate(methods)}
     fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.9 * len(cases)), squeeze=False)
     for row, case in enumerate(cases):
         sel = [r for r in ok if r["case"] == case]
@@ -1070,6 +1077,8 @@ def main():
                         help="accuracy: run only these cases (a full run keeps the others' rows)")
     parser.add_argument("--methods", nargs="+", choices=list(METHODS), default=None,
                         help="accuracy: run only these methods (keeps the others' rows)")
+    parser.add_argument("--transfers", nargs="+", choices=list(TRANSFERS), default=None,
+                        help="stability: run only these transfers (keeps the others' rows)")
     parser.add_argument("--aspects", nargs="+", type=float, default=list(SLICE_ASPECTS),
                         help="slice: V7 aspect ratios a = H0 / L0 at dx 0.005, 2D and a 2-cell "
                              "slice (default 0.5 1 2 4; a = 1 also at dx 0.01 and 0.0025)")

@@ -237,8 +237,9 @@ void transferOnce(World& world, Transfer transfer, int order) {
     world.grid.rebuild(ps, keepsReference(transfer) ? 3 : 0);
     const TransferParams params{world.dim, world.dx, 0.f, transfer, 1.f, -1, order};
     particlesToGrid(ps, world.grid, params, world.scratch);
+    if (transfer == Transfer::Xpic) xpicProjection(ps, world.grid, params, world.scratch);
     updateGridVelocity(world, 0.f);
-    if (transfer == Transfer::Xpic) xpicReference(ps, world.grid, params, world.scratch);
+    if (transfer == Transfer::Xpic) subtractXpicProjection(world.grid, world.scratch);
     gridToParticles(ps, world.grid, params);
 }
 

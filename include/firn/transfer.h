@@ -65,12 +65,15 @@ struct TransferScratch {
 void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferParams& params,
                      TransferScratch& scratch);
 
-/// XPIC(m), between the grid update and G2P: turns the reference in Grid::aux from the
-/// transferred velocity v^L into v^L - v*, v* = sum_{k<m} (I - S+ S)^k v^L (S: grid to
-/// particles, S+: mass-weighted particles to grid), so that G2P's increment S (v - reference)
-/// is XPIC's particle velocity S (v - v^L + v*). One field only (no slip surface).
-void xpicReference(const ParticleSet& particles, Grid& grid, const TransferParams& params,
-                   TransferScratch& scratch);
+/// XPIC(m), after P2G: v* = sum_{k<m} (I - S+ S)^k v^L into the scratch, with S grid to
+/// particles, S+ mass-weighted particles to grid and v^L = S+ v_p P2G's grid velocity.
+void xpicProjection(const ParticleSet& particles, const Grid& grid, const TransferParams& params,
+                    TransferScratch& scratch);
+
+/// XPIC(m), after the grid update: the reference in Grid::aux, v^L, becomes v^L - v*, so that
+/// G2P's increment S (v - reference) is XPIC's particle velocity S v* + S (v - v^L): FLIP's
+/// update with the particle velocity replaced by its filtered S v* (m = 1: S v^L, PIC).
+void subtractXpicProjection(Grid& grid, const TransferScratch& scratch);
 
 /// G2P: particle velocity (APIC/PIC/FLIP/XPIC), affine matrix C (the velocity gradient, also used
 /// for F), position x += dt v_pic and trial F = (I + dt C) F. Returns the largest speed.

@@ -285,17 +285,16 @@ void step(World& world, double dt, StepTimings* timings) {
             world.particles,
             AuxLayout{keepsReference(world.transfer), world.slipMaterial >= 0}.channels());
         particlesToGrid(world.particles, world.grid, params, world.scratch);
+        if (world.transfer == Transfer::Xpic)
+            xpicProjection(world.particles, world.grid, params, world.scratch);
     }
     {
         StageClock clock(timings ? &timings->gridUpdate : nullptr);
         updateGridVelocity(world, dtf);
     }
     {
-        StageClock clock(timings ? &timings->g2p : nullptr); // XPIC's round trips count here
-        if (world.transfer == Transfer::Xpic) {
-            xpicReference(world.particles, world.grid, params, world.scratch);
-            world.stickyWalls.mirror(world.grid, true); // the sticky ghosts' reference again
-        }
+        StageClock clock(timings ? &timings->g2p : nullptr);
+        if (world.transfer == Transfer::Xpic) subtractXpicProjection(world.grid, world.scratch);
         world.maxSpeed = gridToParticles(world.particles, world.grid, params);
     }
     applyBasalDrag(world, dtf);

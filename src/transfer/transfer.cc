@@ -443,26 +443,28 @@ template <int Dim> inline Vec3f interpolate(const Stencil& s, const float* local
     return sum;
 }
 
-/// XPIC(m) (Hammerquist & Nairn 2017): v* = sum_{k<m} (I - S+ S)^k v^L, term by term. S+ S is a
-/// round trip through the particles that P2G scattered (every leaf not in deep sleep), with
-/// their mass scattered beside the momentum so that S+ divides by the same mass it sums (the
-/// sticky walls' fold has added mass to the grid's). The reference becomes v^L - v*, which is
-/// minus the sum of the terms k >= 1.
+/// XPIC(m) (Hammerquist & Nairn 2017): v* = sum_{k<m} (I - S+ S)^k v^L, term by term, from the
+/// transferred grid velocity v^L = S+ v_p of P2G (before the sticky walls' fold and mirror, which
+/// would make v^L other than S+ v_p and let the sum amplify the difference m-fold). S+ S is a
+/// round trip through the particles that P2G scattered (every leaf not in deep sleep), with their
+/// mass scattered beside the momentum so that S+ divides by the mass it sums.
 template <int Dim>
-void xpic(const ParticleSet& ps, Grid& grid, const TransferParams& params,
+void xpic(const ParticleSet& ps, const Grid& grid, const TransferParams& params,
           TransferScratch& scratch) {
     const std::size_t blocks = grid.blockCount();
     std::vector<float>& term = scratch.xpicTerm;
     std::vector<float>& sum = scratch.xpicSum;
-    term.resize(blocks * kLeafNodes * 3);
-    sum.assign(blocks * kLeafNodes * 3, 0.f);
-    const int stride = grid.auxChannels();
+    term.assign(blocks * kLeafNodes * 3, 0.f);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 16), [&](const auto& r) {
         for (std::size_t b = r.begin(); b != r.end(); ++b)
-            for (int n = 0; n < kLeafNodes; ++n)
+            for (int n = 0; n < kLeafNodes; ++n) {
+                const float m = grid.mass(b)[n];
+                if (m <= 0.f) continue;
                 for (int c = 0; c < 3; ++c)
-                    term[(b * kLeafNodes + n) * 3 + c] = grid.aux(b)[stride * n + c];
+                    term[(b * kLeafNodes + n) * 3 + c] = grid.velocity(b)[3 * n + c] / m;
+            }
     });
+    sum = term;
     std::vector<Vec3f>& atParticles = scratch.xpicAtParticles;
     atParticles.resize(ps.size());
     const float invDx = 1.f / ps.dx;
@@ -499,12 +501,6 @@ void xpic(const ParticleSet& ps, Grid& grid, const TransferParams& params,
             }
         });
     }
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, blocks, 16), [&](const auto& r) {
-        for (std::size_t b = r.begin(); b != r.end(); ++b)
-            for (int n = 0; n < kLeafNodes; ++n)
-                for (int c = 0; c < 3; ++c)
-                    grid.aux(b)[stride * n + c] = -sum[(b * kLeafNodes + n) * 3 + c];
-    });
 }
 
 template <int Dim>
@@ -551,10 +547,22 @@ void particlesToGrid(const ParticleSet& particles, Grid& grid, const TransferPar
     p2g<3>(particles, grid, params, scratch);
 }
 
-void xpicReference(const ParticleSet& particles, Grid& grid, const TransferParams& params,
-                   TransferScratch& scratch) {
+void xpicProjection(const ParticleSet& particles, const Grid& grid, const TransferParams& params,
+                    TransferScratch& scratch) {
     if (params.dim == 2) return xpic<2>(particles, grid, params, scratch);
     xpic<3>(particles, grid, params, scratch);
+}
+
+void subtractXpicProjection(Grid& grid, const TransferScratch& scratch) {
+    const int stride = grid.auxChannels();
+    const std::vector<float>& sum = scratch.xpicSum;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, grid.blockCount(), 16), [&](const auto& r) {
+            for (std::size_t b = r.begin(); b != r.end(); ++b)
+                for (int n = 0; n < kLeafNodes; ++n)
+                    for (int c = 0; c < 3; ++c)
+                        grid.aux(b)[stride * n + c] -= sum[(b * kLeafNodes + n) * 3 + c];
+        });
 }
 
 float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params) {
