@@ -2,8 +2,8 @@
 // APIC, dx 0.02). Reports particle-steps per second for 1 and N threads, the speed-up, bytes
 // per particle and the time share of each stage. Not a test: numbers, not assertions.
 //
-//   build/firn_bench [--particles-side CELLS] [--steps N] [--threads N] [--transfer
-//   apic|pic|flip|xpic]
+//   build/firn_bench [--cells CELLS] [--steps N] [--threads N]
+//                    [--transfer apic|pic|flip|xpic] [--xpic-order M]
 #include "compare_openvdb.h"
 
 #include <firn/scene.h>
@@ -30,6 +30,7 @@ struct Options {
     int steps = 60;
     int threads = 0;
     std::string transfer = "apic";
+    int xpicOrder = 2; // used by --transfer xpic
     std::string model = "elastic";
     double offset = 0.0; // m, moves the block away from the origin (empty space must cost nothing)
     double domain = 1.0; // > 1: a one-cell marker body stretches the scene's bounds this many
@@ -52,6 +53,7 @@ end_time = 1.0
 dx = %g
 particles_per_cell = 8
 transfer = "%s"
+xpic_order = %d
 [[material]]
 name = "block"
 model = "%s"
@@ -69,8 +71,9 @@ min = [%g, %g, %g]
 max = [%g, %g, %g]
 velocity = [0.5, 0.0, 0.0]
 )",
-                  dx, o.transfer.c_str(), o.model.c_str(), o.offset, o.offset, o.offset, o.offset,
-                  o.offset, o.offset, o.offset + lx, o.offset + ly, o.offset + lz);
+                  dx, o.transfer.c_str(), o.xpicOrder, o.model.c_str(), o.offset, o.offset,
+                  o.offset, o.offset, o.offset, o.offset, o.offset + lx, o.offset + ly,
+                  o.offset + lz);
     std::string scene = text;
     if (o.domain > 1.0) {
         // The marker's far corner sets the bounds: domain x the block on every axis.
@@ -144,6 +147,8 @@ Options parseOptions(int argc, char** argv) {
             o.threads = std::atoi(value().c_str());
         else if (a == "--transfer")
             o.transfer = value();
+        else if (a == "--xpic-order")
+            o.xpicOrder = std::atoi(value().c_str());
         else if (a == "--model")
             o.model = value();
         else if (a == "--offset")
@@ -151,9 +156,11 @@ Options parseOptions(int argc, char** argv) {
         else if (a == "--domain")
             o.domain = std::atof(value().c_str());
         else {
-            std::fprintf(stderr, "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
-                                 "[--transfer apic|pic|flip|xpic] [--model elastic|snow|granular] "
-                                 "[--offset M] [--domain SCALE]\n");
+            std::fprintf(
+                stderr,
+                "usage: firn_bench [--cells 30] [--steps 60] [--threads N] "
+                "[--transfer apic|pic|flip|xpic] [--xpic-order M] [--model elastic|snow|granular] "
+                "[--offset M] [--domain SCALE]\n");
             std::exit(a == "--help" ? 0 : 1);
         }
     }

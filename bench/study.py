@@ -806,7 +806,9 @@ def chart_accuracy(rows, out_dir):
     conv = {(c["case"], c["method"]): c for c in convergence(rows)}
     cases = [c for c in CASES if any(r["case"] == c for r in ok)]  # V1 first: all methods
     methods = list(METHODS)
-    colours = {m: plt.cm.tab20(i) for i, m in enumerate(methods)}
+    extra = ["navy", "darkgoldenrod", "magenta"]  # past tab10's ten
+    colours = {m: plt.cm.tab10(i) if i < 10 else extra[(i - 10) % len(extra)]
+               for i, m in enumerate(methods)}
     fig, axes = plt.subplots(len(cases), 2, figsize=(12, 3.9 * len(cases)), squeeze=False)
     for row, case in enumerate(cases):
         sel = [r for r in ok if r["case"] == case]
