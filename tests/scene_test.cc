@@ -400,7 +400,7 @@ poisson_ratio = 0.7
           "\"velocity\", \"failed\", \"eta\", got \"speed\"");
     CHECK(errorOf("[grid]\ntransfer = \"mls\"\n") ==
           "scenes/test.toml:2:12: error: grid.transfer: must be one of \"apic\", \"pic\", "
-          "\"flip\", got \"mls\"");
+          "\"flip\", \"xpic\", got \"mls\"");
 }
 
 TEST_CASE("A missing required key is reported at its table header", "[scene][errors]") {
