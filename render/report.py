@@ -123,6 +123,12 @@ class Run:
                               np.array([v.max() if v.size else 0.0 for _, v in frames]))
         return self._flow
 
+    def arrival(self):
+        """crack_arrival.csv as (x, z, time) arrays (3D runs with a crack), or None."""
+        if not hasattr(self, "_arrival"):
+            self._arrival = crack_arrival(self)
+        return self._arrival
+
     def max_flow_speed(self):
         """u_m for the charts: the largest grid speed in the snow when the volumes hold it, else
         summary.json max_speed (the fastest particle); and which one it is."""
@@ -451,6 +457,39 @@ def crack_arrival(run):
     return (a["x"], a["z"], a["time"]) if a.get("x", np.empty(0)).size else None
 
 
+def behind_front(arrival, fracture, dx):
+    """A slab fracture's distance behind the weak-layer crack's front in 3D, m, in plan (x, z):
+    from where it went through to the nearest bed cell the crack had not reached by then (> 0,
+    behind the front), or, when the crack had not reached the fracture's own place, minus the
+    distance to the nearest cell it had (< 0, ahead of it). The front is the arrival isochrone
+    at the fracture's time, in any direction, where the 2D measure (`behind_along_slope`) reads
+    along x only. None without crack_arrival.csv, or when the crack had already reached every
+    cell it ever reached (no front left to be behind)."""
+    if arrival is None:
+        return None
+    x, z, t = arrival
+    distance = np.hypot(x - fracture["x"], z - fracture["z"])
+    reached = t <= fracture["time"]
+    ahead = ~reached
+    if not ahead.any() or not reached.any():
+        return None
+    # The fracture's own bed cell (fractures and arrival are binned on the same dx lattice): an
+    # absent cell (no layer there, or never cracked) has not been reached.
+    own = (np.abs(x - fracture["x"]) <= 0.51 * dx) & (np.abs(z - fracture["z"]) <= 0.51 * dx)
+    if (own & reached).any():
+        return float(distance[ahead].min())
+    return -float(distance[reached].min())
+
+
+def behind_distance(run, fracture):
+    """The distance behind the crack a fracture's label shows: behind the front in plan in 3D
+    (`behind_front`), else along the ground profile, else along x (summary.json)."""
+    if run.dimension == 3 and run.arrival() is not None:
+        return behind_front(run.arrival(), fracture, run.dx)
+    d = behind_along_slope(run, fracture)
+    return fracture.get("distance_behind_crack_tip") if d is None else d
+
+
 def front_speed(distance, time, near=0.5, span=1.0):
     """The crack front's speed along one direction, m/s: the least-squares slope of distance
     against arrival time over the cells more than `near` m from the origin (inside, the trigger
@@ -640,8 +679,7 @@ def slab_fracture_chart(run, path):
         fx = [f["x"] for f in fractures]
         a.plot(ft, fx, "s", ms=6, color="0.35", label="slab fracture (x, time)", clip_on=False)
         for f in fractures:
-            d = behind_along_slope(run, f)
-            d = f.get("distance_behind_crack_tip") if d is None else d
+            d = behind_distance(run, f)
             if d is not None:
                 a.annotate(f"{d:.2f} m", (f["time"], f["x"]), textcoords="offset points",
                            xytext=(4, -10), fontsize=7, color="0.3")
@@ -713,16 +751,20 @@ def deposit_chart(run, path, deposit):
 
 
 def slab_fracture_table(run):
+    plan = run.dimension == 3 and run.arrival() is not None
     rows = "\n".join(
         f"<tr><td class=num>{k + 1}</td><td class=num>{format_value(f['x'])}</td>"
         f"<td class=num>{format_value(f['z'])}</td><td class=num>{format_value(f['time'])}</td>"
         f"<td class=num>{format_value(f['start_depth_fraction'])}</td>"
         f"<td class=num>{format_value(f.get('distance_behind_crack_tip'))}</td>"
-        f"<td class=num>{format_value(behind_along_slope(run, f))}</td></tr>"
+        f"<td class=num>{format_value(behind_along_slope(run, f))}</td>"
+        + (f"<td class=num>{format_value(behind_front(run.arrival(), f, run.dx))}</td>" if plan else "")
+        + "</tr>"
         for k, f in enumerate(run.slab_fractures))
     return ("<table>\n<tr><th>#</th><th>x (m)</th><th>z (m)</th><th>time (s)</th>"
             "<th>start depth fraction</th><th>distance behind crack tip, along x (m)</th>"
-            "<th>along the slope (m)</th></tr>\n"
+            "<th>along the slope (m)</th>"
+            + ("<th>behind the crack's front, in plan (m)</th>" if plan else "") + "</tr>\n"
             f"{rows}\n</table>")
 
 
@@ -995,7 +1037,10 @@ def slab_section(run, out, written):
         "particles fill 80 % of the slab's thickness (cells of dx along the bed, rows of dx "
         "normal to it). Left: position and time where each went through, with the weak-layer "
         "crack tip (labels: distance behind the tip that passed it, along the ground profile; "
-        "along x on other terrain; the paper finds &lt; 1 m). Middle: the depth "
+        "along x on other terrain; in 3D, behind the crack's front in plan, from "
+        "crack_arrival.csv: to the nearest bed cell the crack had not reached when the fracture "
+        "went through, negative when it had not reached the fracture's own cell; "
+        "the paper finds &lt; 1 m). Middle: the depth "
         "where each started, from the weak-layer interface (0) to the top surface (1): Gaume et "
         "al. (2019) find the crown fracture starting at the interface at the slope scale "
         "(Fig. 5) and from the top in the PST. Right: blocks of intact slab (face-connected "
@@ -1033,7 +1078,7 @@ def write_report(run, quiet):
             "bars: slab fractures (summary.json <code>slab_fractures</code>), one cell wide.")))
     else:
         sections.append("<p>No crack: no weak-layer particle reached η &gt; 0.</p>")
-    arrival = crack_arrival(run)
+    arrival = run.arrival()
     if arrival is not None:
         chart, speeds = crack_arrival_chart(run, out / "crack_arrival.png", arrival)
         written.append(chart)

@@ -502,6 +502,32 @@ def check_crack_origin():
               f"{way} front speed 25 m/s: {speeds[way]}")
 
 
+def check_behind_front():
+    """The 3D distance behind the crack's front on the same made-up bed (circles at 25 m/s from
+    (5, 2) m from t = 0.2 s): when the front's radius is 2.05 m, a fracture 1 m from the centre
+    is 1.05 m behind it and one 3 m from the centre 0.95 m ahead of it, each within one cell
+    (0.1 m: the front is read off cell centres), and so is one off the bed's cells; once every cell has cracked there is no front
+    left, and without crack_arrival.csv no measure."""
+    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2] / "render"))
+    import report  # noqa: E402
+    dx = 0.1
+    gx, gz = np.meshgrid(np.arange(0, 101) * dx, np.arange(0, 61) * dx)
+    x, z = gx.ravel(), gz.ravel()
+    arrival = (x, z, 0.2 + np.hypot(x - 5.0, z - 2.0) / 25.0)
+    when = 0.2 + 2.05 / 25.0
+    behind = report.behind_front(arrival, {"x": 5.0, "z": 3.0, "time": when}, dx)
+    check(behind is not None and abs(behind - 1.05) <= dx, f"1.05 m behind the front ({behind})")
+    ahead = report.behind_front(arrival, {"x": 5.0, "z": 5.0, "time": when}, dx)
+    check(ahead is not None and abs(ahead + 0.95) <= dx, f"0.95 m ahead of the front ({ahead})")
+    check(report.behind_front(arrival, {"x": 5.0, "z": 3.0, "time": 10.0}, dx) is None,
+          "no front once the whole bed has cracked")
+    outside = report.behind_front(arrival, {"x": 5.0, "z": 7.0, "time": when}, dx)
+    check(outside is not None and abs(outside + 2.95) <= dx,
+          f"off the bed (no cell of its own): ahead, 2.95 m ({outside})")
+    check(report.behind_front(None, {"x": 5.0, "z": 3.0, "time": when}, dx) is None,
+          "no crack_arrival.csv: no measure")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--firn", required=True)
@@ -510,6 +536,7 @@ def main():
     work = pathlib.Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     check_crack_origin()
+    check_behind_front()
     check_behind_along_slope()
     check_pst(args.firn, work)
     check_pst_3d(args.firn, work)
