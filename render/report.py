@@ -387,6 +387,57 @@ def failure_profiles_2d(run, path):
     return save(fig, path)
 
 
+def strength_used_chart(run, path):
+    """The weak layer's static load in the first frame (t = 0: settled, before any trigger) as
+    the share of its strength the stress uses (weak_layer.csv strength_used): along x in 2D, a
+    top view in 3D. Where it reaches 1 the layer fails under its own load."""
+    w = run.weak
+    first = w["frame"].astype(int) == int(w["frame"].min())
+    time = float(w["time"][first][0])
+    used = w["strength_used"][first]
+    finite = used[np.isfinite(used)]
+    top = max(1.05, float(np.percentile(finite, 99)) if finite.size else 1.05)
+    title = (f"weak layer at t = {time:.3g} s: share of its initial strength the static load uses "
+             "(green: failed under it)")
+    if run.dimension == 3:
+        ix, iz = cell_index(w["x"][first], run.dx), cell_index(w["z"][first], run.dx)
+        grid = np.full((iz.max() - iz.min() + 1, ix.max() - ix.min() + 1), np.nan)
+        grid[iz - iz.min(), ix - ix.min()] = used
+        extent = (ix.min() * run.dx, (ix.max() + 1) * run.dx, iz.min() * run.dx,
+                  (iz.max() + 1) * run.dx)
+        width, height = extent[1] - extent[0], extent[3] - extent[2]
+        fig, a = plt.subplots(figsize=(10, max(2.2, min(8.0, 9.0 * height / width)) + 1.0),
+                              constrained_layout=True)
+        cm = plt.get_cmap("magma").copy()
+        cm.set_bad(NO_LAYER)
+        image = a.imshow(grid, origin="lower", extent=extent, cmap=cm, vmin=0.0, vmax=top,
+                         interpolation="nearest", aspect="equal")
+        failed = np.zeros(grid.shape)
+        failed[iz - iz.min(), ix - ix.min()] = w["failed_fraction"][first]
+        if failed.max() >= 0.5:
+            a.contour(failed, levels=[0.5], extent=extent, colors="#2ca02c", linewidths=1.2)
+        fig.colorbar(image, ax=a, label="strength used", shrink=0.9)
+        a.set_xlabel("x, down-slope (m)")
+        a.set_ylabel("z, across (m)")
+    else:
+        fig, a = plt.subplots(figsize=(12, 3.6), constrained_layout=True)
+        order = np.argsort(w["x"][first])
+        a.plot(w["x"][first][order], used[order], color="#7b3294", lw=1.3, label="strength used")
+        failed = w["failed_fraction"][first][order] >= 0.5
+        if failed.any():
+            a.fill_between(w["x"][first][order], 0, 1, where=failed, color="#2ca02c", alpha=0.2,
+                           step="mid", transform=a.get_xaxis_transform(),
+                           label="failed under it (half its particles or more)")
+        a.axhline(1.0, color="#d62728", lw=0.9, ls="--", label="its strength")
+        a.set_ylim(0.0, top)
+        a.set_xlabel("x, down-slope (m)")
+        a.set_ylabel("strength used")
+        a.legend(fontsize=8, loc="upper right")
+        a.grid(alpha=0.3)
+    a.set_title(title, fontsize=10)
+    return save(fig, path)
+
+
 # Crack, flow, McClung & Gauer -----------------------------------------------------------------
 
 def along_ground(run, x0, x1):
@@ -1015,6 +1066,18 @@ def map_section(run, out, written):
                                          "lines the map times. " + common))
         written.append(failure_profiles_2d(run, out / "failure_profiles.png"))
         parts.append(figure(written[-1], "The same quantities along the slope at the map times."))
+    if "strength_used" in run.weak:
+        written.append(strength_used_chart(run, out / "strength_used.png"))
+        parts.append(figure(written[-1], (
+            "The weak layer's static load before anything triggers it (the first frame: the "
+            "settled state at t = 0): weak_layer.csv <code>strength_used</code>, each cell's mean "
+            "over its weak-layer particles of the share of their initial Cam-Clay surface (eq. 1: "
+            "<code>initial_p0</code>, M, β) that their stress uses, scaling the stress from zero "
+            "until it reaches the surface. 1: on the surface. Where the static load exceeds the "
+            "strength the layer has already yielded and softened (green: cells where half the "
+            "particles or more failed, which settling's report names), so its stress sits on a "
+            "smaller surface and reads below 1 there. Elsewhere, the closer to 1, the less a "
+            "trigger has to add.")))
     return parts
 
 

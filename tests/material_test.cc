@@ -208,6 +208,27 @@ TEST_CASE("Cam-Clay yield surface: tips and peak (V6 closed forms)", "[material]
         if (std::abs(p - pc) > 0.02f * p0) CHECK(camClayYield(p, qMax, p0, M, beta) > 0.f);
 }
 
+TEST_CASE("Cam-Clay strength used: 1 on the surface, scaling with the stress, 0 at rest",
+          "[material][camclay]") {
+    const double p0 = 3450.0, M = 1.0, beta = 0.1;
+    // Points of eq. (1) around the ellipse, q = M sqrt((p + beta p0)(p0 - p) / (1 + 2 beta)):
+    // each uses the whole strength, and a stress scaled by s from one uses s of it (the ray
+    // through it leaves the surface once; round-off of double: 1e-12).
+    for (double p = -beta * p0; p <= p0; p += 0.05 * p0) {
+        const double q = M * std::sqrt(std::max((p + beta * p0) * (p0 - p), 0.0) / (1 + 2 * beta));
+        CHECK(camClayStrengthUsed(p, q, p0, M, beta) == Approx(1.0).epsilon(1e-12));
+        for (double scale : {0.25, 0.8, 1.5})
+            CHECK(camClayStrengthUsed(scale * p, scale * q, p0, M, beta) ==
+                  Approx(scale).epsilon(1e-12));
+    }
+    CHECK(camClayStrengthUsed(0.0, 0.0, p0, M, beta) == 0.0);
+    // No strength left to use: a collapsed layer (p0 = 0) under stress, tension without cohesion.
+    CHECK(std::isinf(camClayStrengthUsed(100.0, 50.0, 0.0, M, beta)));
+    CHECK(std::isinf(camClayStrengthUsed(-100.0, 0.0, p0, M, 0.0)));
+    // Compression without cohesion still has strength: the tip (p0, 0) uses all of it.
+    CHECK(camClayStrengthUsed(p0, 0.0, p0, M, 0.0) == Approx(1.0).epsilon(1e-12));
+}
+
 TEST_CASE("Hardening law eq. (2) and the initial state", "[material][camclay]") {
     for (MaterialModel model : {MaterialModel::Snow, MaterialModel::WeakLayer}) {
         for (int dim : {2, 3}) {

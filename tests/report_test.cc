@@ -17,12 +17,13 @@ using namespace firn::report;
 namespace {
 
 constexpr std::int32_t kSlab = 0, kWeak = 1;
-const std::vector<bool> kIsWeakLayer = {false, true};
+// The weak layer's initial surface: p0 3450 Pa, M 1, beta 0.1 (scenes/pst.toml's layer).
+const std::vector<WeakLayerMaterial> kIsWeakLayer = {{}, {true, 3450.0, 1.0, 0.1}};
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 void addParticle(ParticleFrame& f, std::array<float, 3> P, std::int32_t material,
                  std::array<float, 3> v = {0, 0, 0}, bool failed = false, float eta = 0,
-                 float p = 0) {
+                 float p = 0, float q = 0) {
     f.P.push_back(P);
     f.v.push_back(v);
     f.material.push_back(material);
@@ -30,7 +31,7 @@ void addParticle(ParticleFrame& f, std::array<float, 3> P, std::int32_t material
     f.eps_v.push_back(0);
     f.eta.push_back(eta);
     f.p.push_back(p);
-    f.q.push_back(0);
+    f.q.push_back(q);
 }
 
 } // namespace
@@ -70,6 +71,20 @@ TEST_CASE("2D weak-layer cells: failed share, means, and the slab speed and fail
     CHECK(cells[2].failedFraction == 1.0);
     CHECK(cells[2].slabSpeed == Approx(2));
     CHECK(cells[2].slabFailedFraction == Approx(0.5));
+}
+
+TEST_CASE("weak-layer cells: the mean share of the initial strength the stress uses", "[report]") {
+    ParticleFrame f;
+    // On the surface at the ellipse's top (p = p_c = 0.45 p0, q = M (1 + beta) p0 / (2 sqrt(1 + 2
+    // beta))): 1; half of that stress: 0.5; a slab particle at the same place does not count.
+    const float p0 = 3450.f, pTop = 0.45f * p0;
+    const float qTop = 1.1f * p0 / (2.f * std::sqrt(1.2f));
+    addParticle(f, {0.02f, 0.01f, 0}, kWeak, {}, false, 0, pTop, qTop);
+    addParticle(f, {0.07f, 0.02f, 0}, kWeak, {}, false, 0, 0.5f * pTop, 0.5f * qTop);
+    addParticle(f, {0.05f, 0.30f, 0}, kSlab, {}, false, 0, 10 * pTop, 10 * qTop);
+    const auto cells = binWeakLayer(f, kIsWeakLayer, 0.1, 2);
+    REQUIRE(cells.size() == 1);
+    CHECK(cells[0].strengthUsed == Approx(0.75).epsilon(1e-5));
 }
 
 TEST_CASE("3D weak-layer cells form an x-z raster in z-then-x order", "[report]") {

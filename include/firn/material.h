@@ -149,6 +149,12 @@ StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim);
 /// Cam-Clay yield function y(p, q) = (1 + 2 beta) q^2 + M^2 (p + beta p0)(p - p0), eq. (1).
 float camClayYield(float p, float q, float p0, float M, float beta);
 
+/// Share of a Cam-Clay surface's strength that the stress (p, q) uses under proportional
+/// loading: 1 / lambda, where lambda > 0 scales (p, q) onto the surface, y(lambda p, lambda q) = 0
+/// (eq. 1). 0 at zero stress, 1 on the surface, > 1 beyond it; +infinity where no scale reaches
+/// the surface (p0 <= 0 with a stress, or tension without cohesion, beta = 0).
+double camClayStrengthUsed(double p, double q, double p0, double M, double beta);
+
 /// Hardening law p0 = K sinh(xi max(-e, 0)), eq. (2) (and eq. (3) with e = eta).
 float camClayP0(float K, float xi, float hardeningVariable);
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace firn {
 
@@ -112,6 +113,18 @@ StressInvariants stressInvariants(const Vec3f& tauPrincipal, int dim) {
 float camClayYield(float p, float q, float p0, float M, float beta) {
     // eq. (1), Gaume et al. 2019
     return (1.f + 2.f * beta) * q * q + M * M * (p + beta * p0) * (p - p0);
+}
+
+double camClayStrengthUsed(double p, double q, double p0, double M, double beta) {
+    // y(lambda p, lambda q) = a lambda^2 + b lambda + c with c = -M^2 beta p0^2 <= 0: one root
+    // lambda > 0 (the ray leaves the surface once), and 1 / lambda = 2 a / (-b + sqrt(b^2 - 4ac)).
+    const double a = (1.0 + 2.0 * beta) * q * q + M * M * p * p;
+    if (a == 0.0) return 0.0; // zero stress uses none of it
+    const double b = M * M * p * p0 * (beta - 1.0);
+    const double c = -M * M * beta * p0 * p0;
+    const double denominator = -b + std::sqrt(std::max(b * b - 4.0 * a * c, 0.0));
+    if (!(p0 > 0.0) || !(denominator > 0.0)) return std::numeric_limits<double>::infinity();
+    return 2.0 * a / denominator;
 }
 
 float camClayP0(float K, float xi, float hardeningVariable) {

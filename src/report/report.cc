@@ -73,8 +73,8 @@ std::string csvNumber(double value) {
 struct RunFolder {
     std::string outDir;
     SceneDesc scene;
-    std::vector<bool> isWeakLayer; ///< by material index
-    std::string weakLayerNames;    ///< comma-separated, empty when there is none
+    std::vector<report::WeakLayerMaterial> materials; ///< by material index
+    std::string weakLayerNames;                       ///< comma-separated, empty when there is none
     report::MetricsTable metrics;
     std::vector<int> frames;      ///< particle cache frames that have a metrics row
     std::vector<double> times;    ///< s, of those frames
@@ -95,7 +95,7 @@ RunFolder openRunFolder(const std::string& outDir) {
     run.scene = loadRunScene(outDir + "/scene.toml");
     for (const MaterialDesc& m : run.scene.materials) {
         const bool weak = m.model == MaterialModel::WeakLayer;
-        run.isWeakLayer.push_back(weak);
+        run.materials.push_back({weak, m.initialP0, m.criticalStateSlope, m.cohesionRatio});
         if (weak) run.weakLayerNames += (run.weakLayerNames.empty() ? "" : ",") + m.name;
     }
     run.metrics = report::readMetrics(outDir + "/metrics.csv");
@@ -118,7 +118,8 @@ RunFolder openRunFolder(const std::string& outDir) {
 class WeakLayerTable {
 public:
     WeakLayerTable()
-        : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed,slab_failed_fraction\n") {}
+        : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed,slab_failed_fraction,"
+                "strength_used\n") {}
 
     void add(const CachedFrame& frame, const std::vector<report::WeakLayerCell>& cells) {
         const std::string prefix =
@@ -126,7 +127,8 @@ public:
         for (const auto& c : cells) {
             mText += prefix + csvNumber(c.x) + "," + csvNumber(c.z) + "," +
                      csvNumber(c.failedFraction) + "," + csvNumber(c.eta) + "," + csvNumber(c.p) +
-                     "," + csvNumber(c.slabSpeed) + "," + csvNumber(c.slabFailedFraction) + "\n";
+                     "," + csvNumber(c.slabSpeed) + "," + csvNumber(c.slabFailedFraction) + "," +
+                     csvNumber(c.strengthUsed) + "\n";
         }
     }
     const std::string& text() const { return mText; }
@@ -206,9 +208,11 @@ void reduceFrames(const RunFolder& run, const std::vector<int>& mapFrames,
             ends.depthEnd = report::snowDepthAlongX(cached.particles, dx, dim, ppc);
             ends.endTime = cached.info.time;
         }
-        if (hasWeakLayer && (everyFrame || contains(mapFrames, frame))) {
+        // The first frame too: the static load before anything triggers (strength_used).
+        if (hasWeakLayer &&
+            (everyFrame || frame == run.frames.front() || contains(mapFrames, frame))) {
             table.add(cached,
-                      report::binWeakLayer(cached.particles, run.isWeakLayer, run.scene.grid.dx,
+                      report::binWeakLayer(cached.particles, run.materials, run.scene.grid.dx,
                                            run.scene.simulation.dimension));
         }
     }

@@ -1,5 +1,7 @@
 #include "report/weak_layer_map.h"
 
+#include <firn/material.h>
+
 #include <array>
 #include <cmath>
 #include <limits>
@@ -11,17 +13,20 @@ namespace {
 
 struct Sums {
     int weak = 0, failed = 0, slab = 0, slabFailed = 0;
-    double eta = 0, p = 0, weakHeight = 0, slabSpeed = 0;
+    double eta = 0, p = 0, weakHeight = 0, slabSpeed = 0, strengthUsed = 0;
 };
 
-bool isWeak(const std::vector<bool>& isWeakLayer, std::int32_t material) {
-    return material >= 0 && std::size_t(material) < isWeakLayer.size() && isWeakLayer[material];
+const WeakLayerMaterial* weakLayerOf(const std::vector<WeakLayerMaterial>& materials,
+                                     std::int32_t material) {
+    if (material < 0 || std::size_t(material) >= materials.size()) return nullptr;
+    return materials[std::size_t(material)].isWeakLayer ? &materials[std::size_t(material)]
+                                                        : nullptr;
 }
 
 } // namespace
 
 std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
-                                        const std::vector<bool>& isWeakLayer, double dx,
+                                        const std::vector<WeakLayerMaterial>& materials, double dx,
                                         int dimension) {
     // Keyed (z, x) so that iteration gives raster order. Two passes: the weak layer's mean
     // height per column first, then the slab above it (a base layer below is not slab).
@@ -32,16 +37,19 @@ std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
         return std::make_pair(iz, ix);
     };
     for (std::size_t i = 0; i < frame.P.size(); ++i) {
-        if (!isWeak(isWeakLayer, frame.material[i])) continue;
+        const WeakLayerMaterial* weak = weakLayerOf(materials, frame.material[i]);
+        if (!weak) continue;
         Sums& s = cells[cellOf(frame.P[i])];
         ++s.weak;
         s.failed += frame.failed[i] != 0;
         s.eta += frame.eta[i];
         s.p += frame.p[i];
         s.weakHeight += frame.P[i][1];
+        s.strengthUsed +=
+            camClayStrengthUsed(frame.p[i], frame.q[i], weak->p0, weak->M, weak->beta);
     }
     for (std::size_t i = 0; i < frame.P.size(); ++i) {
-        if (isWeak(isWeakLayer, frame.material[i])) continue;
+        if (weakLayerOf(materials, frame.material[i])) continue;
         const auto cell = cells.find(cellOf(frame.P[i]));
         if (cell == cells.end()) continue;
         Sums& s = cell->second;
@@ -60,6 +68,7 @@ std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
         c.failedFraction = double(s.failed) / s.weak;
         c.eta = s.eta / s.weak;
         c.p = s.p / s.weak;
+        c.strengthUsed = s.strengthUsed / s.weak;
         const double none = std::numeric_limits<double>::quiet_NaN();
         c.slabSpeed = s.slab > 0 ? s.slabSpeed / s.slab : none;
         c.slabFailedFraction = s.slab > 0 ? double(s.slabFailed) / s.slab : none;

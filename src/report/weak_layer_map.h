@@ -21,14 +21,25 @@ struct WeakLayerCell {
     /// Share of those slab particles that have yielded at least once (Fig. A1's slab map); NaN
     /// when it has none.
     double slabFailedFraction = 0;
+    /// Mean share of the initial strength the weak-layer particles' stress uses
+    /// (camClayStrengthUsed on their material's initial surface): at t = 0 how close the static
+    /// load is to failure (1: on the surface); after softening it still refers to the initial
+    /// surface.
+    double strengthUsed = 0;
 };
 
-/// Bins `frame` on cells of size `dx` (x in 2D, x-z in 3D). isWeakLayer[m] says whether
-/// material index m is a weak layer; other particles above the weak layer's mean height in
-/// the column count as slab. Cells come ordered by z, then
+/// What the binning needs of each material, by its index in the scene.
+struct WeakLayerMaterial {
+    bool isWeakLayer = false;
+    double p0 = 0, M = 0, beta = 0; ///< a weak layer's initial Cam-Clay surface (eq. 1)
+};
+
+/// Bins `frame` on cells of size `dx` (x in 2D, x-z in 3D). materials[m] says whether material
+/// index m is a weak layer, and its initial surface; other particles above the weak layer's
+/// mean height in the column count as slab. Cells come ordered by z, then
 /// x, so the output does not depend on the particle order.
 std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
-                                        const std::vector<bool>& isWeakLayer, double dx,
+                                        const std::vector<WeakLayerMaterial>& materials, double dx,
                                         int dimension);
 
 } // namespace firn::report

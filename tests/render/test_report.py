@@ -316,10 +316,20 @@ def check_pst(binary, work):
     up, down = at & (weak["x"] < tip_then - 0.1), at & (weak["x"] > tip_then + 0.3)
     check(np.mean(weak["failed_fraction"][up]) > 0.5 > np.mean(weak["failed_fraction"][down]),
           "failed behind the crack tip, elastic well ahead of it")
+    # strength_used: a cell none of whose particles ever yielded still has its initial surface,
+    # so its stress lies inside it (<= 1, float stresses: 1e-3); ahead of the tip the slab loads
+    # the layer (> 5 %); the collapsed layer behind the tip carries little (< 1).
+    used = weak["strength_used"]
+    elastic_cells = at & (weak["failed_fraction"] == 0)
+    check(np.all(used[elastic_cells] <= 1.001),
+          f"elastic cells use at most their strength (max {np.max(used[elastic_cells]):.4f})")
+    check(np.all(used[down] > 0.05), f"the slab loads the layer ahead of the tip (min "
+          f"{np.min(used[down]):.3f})")
+    check((report_dir / "strength_used.png").exists(), "the static load chart is drawn")
 
-    check_html(report_dir, expected_images=7)
-    for name in ("failure_maps", "failure_profiles", "crack", "slab_fractures", "flow",
-                 "mcclung_gauer"):
+    check_html(report_dir, expected_images=8)
+    for name in ("failure_maps", "failure_profiles", "strength_used", "crack", "slab_fractures",
+                 "flow", "mcclung_gauer"):
         check_png(report_dir / f"{name}.png")
     # The x-time image of the failed share (left panel of three): black elastic below the
     # crack's path, white/grey failed above it.
@@ -343,7 +353,8 @@ def check_pst_3d(binary, work):
     weak = read_table(report_dir / "data" / "weak_layer.csv")
     maps = read_table(report_dir / "data" / "map_frames.csv")
     frames = np.unique(weak["frame"])
-    check(np.array_equal(frames, maps["frame"]), f"3D: only the map frames are binned ({frames})")
+    check(np.array_equal(frames, np.union1d(maps["frame"], [0])),
+          f"3D: only the first frame and the map frames are binned ({frames})")
     z_cells = np.unique(weak["z"])
     check(np.allclose(z_cells, [0.025, 0.075, 0.125, 0.175, 0.225]),
           f"3D: cells across the 0.25 m width at z = {z_cells}")
@@ -358,7 +369,8 @@ def check_pst_3d(binary, work):
           f"3D: {arrival['x'].size} crack_arrival.csv cells on the layer's plan beyond the cut")
     r = np.corrcoef(arrival["x"], arrival["time"])[0, 1] if arrival["x"].size > 2 else 0.0
     check(r > 0.5, f"3D: the crack arrives later farther from the cut (correlation {r:.2f})")
-    check_html(report_dir, expected_images=7)
+    check_html(report_dir, expected_images=8)
+    check_png(report_dir / "strength_used.png")
     check_png(report_dir / "failure_maps.png")
     check_png(report_dir / "slab_fractures.png")
     check_png(report_dir / "crack_arrival.png")
