@@ -16,7 +16,7 @@ a flat critical cut (--flat-ac, Firn's measured one by default), so what the mod
 the ratio a_c(slope) / a_c(0) for each mode mixity G_IIc / G_Ic: mode I alone is V8's
 "compressive criterion"; mode II alone a shear criterion as V8's closed form's, but here the
 overhang's bending shears the tip against the slope's pull where the closed form adds the two
-(README, Snow: "V8's other model").
+(bench/studies.md: "V8's other model").
 
     /usr/bin/python3 bench/mixed_mode_beam.py [--geometry firn-pst|v8-example] [--flat-ac 0.5125]
                      [--slopes 0 10 20 30 35] [--toughness-ratios 0 0.5 1 2 4 inf]

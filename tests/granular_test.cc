@@ -99,7 +99,7 @@ TEST_CASE("Mohr-Coulomb: biaxial and simple shear mobilise phi in 2D and in 3D p
                 const Vec3f eps = load(m, kPrecompression, path.increment, 5000);
                 // The issue's tolerance, 0.5 deg. The return lands on the surface to float
                 // round-off (~1e-5 deg); Drucker-Prager with one cone for both dimensions gave
-                // 27.5 deg in 2D and 43.9 deg here in 3D for phi = 30 (README).
+                // 27.5 deg in 2D and 43.9 deg here in 3D for phi = 30 (bench/studies.md, V7).
                 CHECK(inPlaneFrictionDeg(m, eps) == Approx(phi).margin(0.5));
                 if (dim == 3) {
                     // nu = 0.3, phi >= 23.6 deg: the out-of-plane stress stays intermediate, so

@@ -1,7 +1,7 @@
 // V7 (validation.md): the planar granular column collapse of Lube et al. (2005). A column L0 wide
 // and a L0 tall against a slip wall collapses onto a sticky floor; its normalised runout
 // (L - L0) / L0 follows 1.2 a for a < 1.8 and 1.9 a^(2/3) for a > 2.8. With a constant friction
-// the runout is not converged (README, Known limitations: it grows with every halving of dx, the
+// the runout is not converged (bench/studies.md, V7: it grows with every halving of dx, the
 // thin front); with the mu(I) friction it converges, and the fitted parameters below put it
 // within 15 % of the law at a = 0.5 to 4 (README, Validation: V7).
 #include "test_util.h"
