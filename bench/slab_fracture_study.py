@@ -123,6 +123,35 @@ CONCAVE_TOP = {
                     12.5),
 }
 
+# The 3D slope's plane-strain cut's differences from slope2d (bench/slope3d_cut.toml), each one a
+# variant below and together `cut-all`. A thicker layer or slab lifts the snowman by the 0.1 m
+# added, along the slope normal at its point (34 degrees) from the shipped [12.846, 4.442].
+CUT = {"ppc8": ["grid.particles_per_cell=8"],
+       "weak0.3": ["body.weak.thickness=0.3", "material.weak.softening=500"],
+       "slab0.5": ["body.slab.thickness=0.5"],
+       "weak90": ["material.weak.density=90"],
+       "gentler6": ["simulation.gravity=[-1.02542, -9.75626]"]}
+THICKENS = {"weak0.3": 0.1, "slab0.5": 0.1}
+
+
+def lifted(lift):
+    """The snowman lifted `lift` m along the slope normal (none for 0)."""
+    if not lift:
+        return []
+    return [f"body.block.center=[{12.846 + 0.559 * lift:.3f}, {4.442 + 0.829 * lift:.3f}]"]
+
+
+def cut(*names):
+    """The cut's differences `names` together, the snowman lifted for the thicker ones."""
+    return ([o for name in names for o in CUT[name]]
+            + lifted(sum(THICKENS.get(name, 0.0) for name in names)))
+
+
+def cut_all_but(left_out=None):
+    """All the cut's differences but `left_out`."""
+    return cut(*[name for name in CUT if name != left_out])
+
+
 # name: (dx, overrides of scenes/slope2d.toml, what it tests)
 VARIANTS = {
     "shipped": (0.05, [], "the shipped scene: the PST's weak layer (100 kg/m^3) with alpha 333 "
@@ -184,22 +213,28 @@ VARIANTS = {
     # slab does not break within 1 m behind the running crack (README, Known limitations): its 8
     # particles per cell, its 0.3 m weak layer (alpha 500, the crack band's) and its slab up to
     # 0.5 m deep. A thicker layer or slab lifts the snowman by the 0.1 m added, along the normal.
-    "ppc8": (0.05, ["grid.particles_per_cell=8"], "8 particles per cell (the 3D slope's cut)"),
-    "weak0.3": (0.05, ["body.weak.thickness=0.3", "material.weak.softening=500",
-                       "body.block.center=[12.902, 4.525]"],
+    "ppc8": (0.05, cut("ppc8"), "8 particles per cell (the 3D slope's cut)"),
+    "weak0.3": (0.05, cut("weak0.3"),
                 "a 0.3 m weak layer with the crack band's alpha 500 (the 3D slope's cut)"),
     "weak0.1": (0.05, ["body.weak.thickness=0.1", "material.weak.softening=167",
                        "body.block.center=[12.790, 4.359]"],
                 "a 0.1 m weak layer (the issue's first try) with the crack band's alpha 167"),
-    "slab0.5": (0.05, ["body.slab.thickness=0.5", "body.block.center=[12.902, 4.525]"],
-                "a 0.5 m slab (the 3D slope's deepest)"),
-    "weak90": (0.05, ["material.weak.density=90"],
+    "slab0.5": (0.05, cut("slab0.5"), "a 0.5 m slab (the 3D slope's deepest)"),
+    "weak90": (0.05, cut("weak90"),
                "a 90 kg/m^3 weak layer (the one that runs the crack on the 3D slope's cut)"),
-    "gentler6": (0.05, ["simulation.gravity=[-1.02542, -9.75626]"],
+    "gentler6": (0.05, cut("gentler6"),
                  "gravity tilted 6 degrees up-slope: 39 degrees at the steepest, as the 3D "
                  "slope's profile"),
     "straight-top": (0.05, straight_top(),
                      "no convexity: the 45 degree section continued to the top (15 m high)"),
+    # The cut's five differences above together (the snowman lifted 0.2 m), and each left out
+    # in turn: whether their combination breaks the slab from the surface 2-3 m behind the tip,
+    # as the cut does, and which of them it needs.
+    "cut-all": (0.05, cut_all_but(),
+                "all five of the cut's differences: 8 particles per cell, a 0.3 m layer of "
+                "90 kg/m^3 with alpha 500, a 0.5 m slab, 39 degrees at the steepest"),
+    **{f"cut-all-no-{name}": (0.05, cut_all_but(name), f"cut-all without {name}")
+       for name in CUT},
     "concave-top30": (0.05, CONCAVE_TOP[30],
                       "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
                       "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
@@ -209,7 +244,7 @@ VARIANTS = {
     "concave-top32": (0.05, CONCAVE_TOP[32],
                       "the same with a 32 degree bench and 40 degrees under the snowman "
                       "(x 12.5 m)"),
-    # The PST sweep's layers weak in tension with a high cap (README, Snow: "A layer weak in
+    # The PST sweep's layers weak in tension with a high cap (bench/studies.md: "A layer weak in
     # tension and strong under confinement"), alpha scaled to the 0.2 m layer (x 0.2 / 0.06).
     "weak-B": (0.05, ["material.weak.cohesion_ratio=0.01",
                       "material.weak.critical_state_slope=0.35",
