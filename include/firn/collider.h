@@ -72,6 +72,8 @@ private:
 
     // Nearest point on the profile polyline (x-y plane) and the sign of the side.
     void nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const;
+    // Index of the profile segment over x (its first and last extend past the ends).
+    std::size_t profileSegmentAt(float xCoord) const;
 };
 
 } // namespace firn

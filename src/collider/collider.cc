@@ -1,6 +1,7 @@
 #include <firn/collider.h>
 #include <firn/gis.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -33,12 +34,25 @@ bool Collider::covers(double xCoord, double zCoord) const {
            zCoord >= h.z0() - half && zCoord <= h.z0() + (h.rows() - 0.5) * h.cellSize();
 }
 
+std::size_t Collider::profileSegmentAt(float xCoord) const {
+    // The first segment whose end is not left of x (x increases strictly along a profile, as
+    // the scene reader requires); the ends extend.
+    const auto first = mProfile.begin() + 1, last = mProfile.end() - 1;
+    const auto it = std::lower_bound(
+        first, last, xCoord, [](const std::array<float, 2>& p, float x) { return p[0] < x; });
+    return std::size_t(it - first);
+}
+
 // The polyline is extended past its ends along its first and last segments, so that the
-// ground never ends under a scene.
+// ground never ends under a scene. Every grid node next to the ground asks this at every step,
+// so the search starts at the segment under px and walks outwards until a segment's x-range
+// lies farther from px than the nearest point found: it then returns what a scan of every
+// segment returns, bit for bit (the same arithmetic per segment, ties to the lower index).
 void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float& sign) const {
     const std::size_t ns = mProfile.size() - 1;
     float best = std::numeric_limits<float>::max();
-    for (std::size_t s = 0; s < ns; ++s) {
+    std::size_t bestSegment = ns;
+    const auto visit = [&](std::size_t s) {
         const float ax = mProfile[s][0], ay = mProfile[s][1];
         const float ex = mProfile[s + 1][0] - ax, ey = mProfile[s + 1][1] - ay;
         float t = ((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey);
@@ -46,7 +60,24 @@ void Collider::nearestOnProfile(float px, float py, float& cx, float& cy, float&
         if (s + 1 < ns) t = std::min(t, 1.f);
         const float qx = ax + t * ex, qy = ay + t * ey;
         const float d2 = (px - qx) * (px - qx) + (py - qy) * (py - qy);
-        if (d2 < best) best = d2, cx = qx, cy = qy;
+        if (d2 < best || (d2 == best && s < bestSegment))
+            best = d2, bestSegment = s, cx = qx, cy = qy;
+    };
+    // A segment whose x-range lies a gap g from px is at least g away. The slack covers the
+    // rounding of a segment's computed point (a few ulps of x), the factor that of the distances.
+    const auto farther = [&](std::size_t s, float gap) {
+        const float slack = 4e-6f * (std::abs(mProfile[s][0]) + std::abs(mProfile[s + 1][0]) + 1.f);
+        return gap > slack && (gap - slack) * (gap - slack) > 1.001f * best;
+    };
+    const std::size_t start = std::min(profileSegmentAt(px), ns - 1);
+    visit(start);
+    for (std::size_t s = start; s-- > 0;) {
+        if (farther(s, px - mProfile[s + 1][0])) break;
+        visit(s);
+    }
+    for (std::size_t s = start + 1; s < ns; ++s) {
+        if (farther(s, mProfile[s][0] - px)) break;
+        visit(s);
     }
     sign = py >= heightAt(px, 0.f) ? 1.f : -1.f;
 }
@@ -59,8 +90,7 @@ float Collider::heightAt(float xCoord, float zCoord) const {
         const float dz = mDim == 3 ? mNormal[2] * (zCoord - mPoint[2]) : 0.f;
         return mPoint[1] - (mNormal[0] * (xCoord - mPoint[0]) + dz) / mNormal[1];
     }
-    std::size_t s = 0;
-    while (s + 2 < mProfile.size() && xCoord > mProfile[s + 1][0]) ++s;
+    const std::size_t s = profileSegmentAt(xCoord);
     const auto& a = mProfile[s];
     const auto& b = mProfile[s + 1];
     return a[1] + (b[1] - a[1]) * (xCoord - a[0]) / (b[0] - a[0]);
@@ -93,8 +123,7 @@ Vec3f Collider::normal(const Vec3f& x) const {
     const float len = n.norm();
     if (len > 1e-6f) return n / len;
     // On the surface: the normal of the local segment, pointing up.
-    std::size_t s = 0;
-    while (s + 2 < mProfile.size() && x[0] > mProfile[s + 1][0]) ++s;
+    const std::size_t s = profileSegmentAt(x[0]);
     Vec3f seg(mProfile[s + 1][0] - mProfile[s][0], mProfile[s + 1][1] - mProfile[s][1], 0.f);
     return Vec3f(-seg[1], seg[0], 0.f).normalized();
 }
