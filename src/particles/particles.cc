@@ -131,25 +131,27 @@ void ParticleSet::append(ParticleSet&& other) {
 
 namespace {
 
-/// Gathers a[k] = a[order[k]] in parallel through `scratch` (bytes per element `scratchStride`),
-/// in slices of at most scratchStride bytes per element when the element is larger. No scratch
-/// is allocated: the caller lends the stress array, which is recomputed after bucketing.
-template <typename T>
+/// Gathers a[k] = a[order[k]] in parallel through `scratch`, Stride bytes per element, in
+/// slices of at most Stride bytes when the element is larger. No scratch is allocated: the
+/// caller lends the stress array, which is recomputed after bucketing. The slice sizes are
+/// compile-time constants, so each copy is a few moves, not a call to memcpy: bucketing runs
+/// every step and copies every particle's state twice.
+template <std::size_t Stride, std::size_t Offset = 0, typename T>
 void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
-                   unsigned char* scratch, std::size_t scratchStride) {
+                   unsigned char* scratch) {
+    constexpr std::size_t len = std::min(Stride, sizeof(T) - Offset);
     const std::size_t n = a.size();
     unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
-    for (std::size_t off = 0; off < sizeof(T); off += scratchStride) {
-        const std::size_t len = std::min(scratchStride, sizeof(T) - off);
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-            for (std::size_t k = r.begin(); k != r.end(); ++k)
-                std::memcpy(scratch + k * len, base + order[k] * sizeof(T) + off, len);
-        });
-        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-            for (std::size_t k = r.begin(); k != r.end(); ++k)
-                std::memcpy(base + k * sizeof(T) + off, scratch + k * len, len);
-        });
-    }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k)
+            std::memcpy(scratch + k * len, base + order[k] * sizeof(T) + Offset, len);
+    });
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k)
+            std::memcpy(base + k * sizeof(T) + Offset, scratch + k * len, len);
+    });
+    if constexpr (Offset + Stride < sizeof(T))
+        gatherInPlace<Stride, Offset + Stride>(a, order, scratch);
 }
 
 // Initial bucketing of unsorted particles: a stable sort by leaf key.
@@ -284,15 +286,15 @@ void ParticleSet::bucketByLeaf() {
     }
     // The stress array is the scratch: it is recomputed from H after every bucketing.
     unsigned char* scratch = reinterpret_cast<unsigned char*>(tau.data());
-    const std::size_t stride = sizeof(Sym3f);
-    gatherInPlace(x, mOrder, scratch, stride);
-    gatherInPlace(v, mOrder, scratch, stride);
-    gatherInPlace(C, mOrder, scratch, stride);
-    gatherInPlace(H, mOrder, scratch, stride);
-    gatherInPlace(mass, mOrder, scratch, stride);
-    gatherInPlace(volume0, mOrder, scratch, stride);
-    gatherInPlace(material, mOrder, scratch, stride);
-    gatherInPlace(plastic, mOrder, scratch, stride);
+    constexpr std::size_t stride = sizeof(Sym3f);
+    gatherInPlace<stride>(x, mOrder, scratch);
+    gatherInPlace<stride>(v, mOrder, scratch);
+    gatherInPlace<stride>(C, mOrder, scratch);
+    gatherInPlace<stride>(H, mOrder, scratch);
+    gatherInPlace<stride>(mass, mOrder, scratch);
+    gatherInPlace<stride>(volume0, mOrder, scratch);
+    gatherInPlace<stride>(material, mOrder, scratch);
+    gatherInPlace<stride>(plastic, mOrder, scratch);
 }
 
 } // namespace firn
