@@ -132,6 +132,8 @@ CUT = {"ppc8": ["grid.particles_per_cell=8"],
        "weak90": ["material.weak.density=90"],
        "gentler6": ["simulation.gravity=[-1.02542, -9.75626]"]}
 THICKENS = {"weak0.3": 0.1, "slab0.5": 0.1}
+# The slip surface of scenes/slope3d.toml and its cut: the slab and the trigger above the weak layer.
+SLIP = ['body.slab.slides_on="weak"', 'body.block.slides_on="weak"']
 
 
 def lifted(lift):
@@ -227,6 +229,10 @@ VARIANTS = {
                  "slope's profile"),
     "straight-top": (0.05, straight_top(),
                      "no convexity: the 45 degree section continued to the top (15 m high)"),
+    # The cut has one more difference the variants above leave out: the slip surface
+    # (`slides_on`), which the 3D slope and its cut use and slope2d does not.
+    "slip": (0.05, SLIP, "the slab and the snowman above a slip surface on the weak layer "
+             "(slides_on, slip_friction the default 0.69), as the 3D slope and its cut"),
     # The cut's five differences above together (the snowman lifted 0.2 m), and each left out
     # in turn: whether their combination breaks the slab from the surface 2-3 m behind the tip,
     # as the cut does, and which of them it needs.
