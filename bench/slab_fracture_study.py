@@ -21,7 +21,12 @@ and reports, from summary.json and the eta volumes (read with pyopenvdb):
   the tip's position timed to the step; summary.json's distance_behind_crack_tip is along x),
   start depth (0: at the weak
   layer, 1: at the surface), where the tip was then and how long after the tip had passed the
-  fracture's position it went through.
+  fracture's position it went through; and when each began (its first fractured particle,
+  summary.json's start_time) and how far behind the tip it then was.
+The variants whose row names another scene (the 3D slope's plane-strain cut, bench/slope3d_cut.toml)
+are measured the same way, up-slope of their own snowman (CONTACT_X); the 45 degree section and
+the process zone are slope2d's and left empty for them. With --seeds, the distances of the
+fractures 3 m or more up-slope of the snowman are pooled per variant and printed at the end.
 Writes results.csv into bench/results/slab-fracture/ (or --out); a run of some variants replaces
 their rows and keeps the others. With --seeds each variant runs once per seed (`simulation.seed`:
 the particles' jitter), its rows named VARIANT@seedS: how much of a row is the seeding's scatter.
@@ -31,6 +36,7 @@ import csv
 import json
 import math
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -40,6 +46,12 @@ import tomllib
 import pyopenvdb as vdb
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SLOPE2D = os.path.join(ROOT, "scenes", "slope2d.toml")
+CUT_SCENE = os.path.join(ROOT, "bench", "slope3d_cut.toml")
+# Where the snowman touches the slab: fractures within 2 m up-slope of it (its edge, where its
+# load bends the slab) are left out of the table's "while the crack runs" columns, within 3 m of
+# it out of the pooled distances (--variants ... --seeds ...).
+CONTACT_X = {SLOPE2D: 12.5, CUT_SCENE: 8.5}
 FRAME_RATE = 200.0
 SLAB_P0 = 22440.0  # the table's slab initial_p0 at 250 kg/m^3 (firn check scenes/slope2d.toml)
 
@@ -78,7 +90,7 @@ def straight_top():
     """slope2d's profile with its convex top (x < 5.5 m, 25 to 45 degrees) replaced by the
     45 degree line continued up to x = 0 (15.0 m high there): a profile with no convexity, as
     the 3D slope's parabola."""
-    with open(os.path.join(ROOT, "scenes", "slope2d.toml"), "rb") as f:
+    with open(SLOPE2D, "rb") as f:
         points = tomllib.load(f)["terrain"][0]["points"]
     x0, z0 = 5.5, next(z for x, z in points if x == 5.5)
     points = [[x, round(z0 + (x0 - x), 3) if x < x0 else z] for x, z in points]
@@ -134,6 +146,15 @@ CUT = {"ppc8": ["grid.particles_per_cell=8"],
 THICKENS = {"weak0.3": 0.1, "slab0.5": 0.1}
 # The slip surface of scenes/slope3d.toml and its cut: the slab and the trigger above the weak layer.
 SLIP = ['body.slab.slides_on="weak"', 'body.block.slides_on="weak"']
+# The cut itself (bench/slope3d_cut.toml, 4th entry of its VARIANTS rows) as bench/README.md's
+# runs of it: its whole profile at dx 0.05, a 90 kg/m^3 layer with the band's alpha 500, the
+# brittle slab and the standing snowman of the 3D slope (radius 0.45 m, touching at x 8.5 m),
+# without the slip surface; TILTED turns gravity 6 degrees so that its top is 45 degrees, as
+# slope2d's steep section.
+CUT_RUN = ["material.weak.softening=500", "material.weak.density=90",
+           "material.slab.hardening=5", "material.block.initial_p0=20000",
+           "body.block.radius=0.45", "body.block.center=[8.713, 4.775]"]
+TILTED = ["simulation.gravity=[1.02542, -9.75626]"]
 
 
 def lifted(lift):
@@ -154,7 +175,7 @@ def cut_all_but(left_out=None):
     return cut(*[name for name in CUT if name != left_out])
 
 
-# name: (dx, overrides of scenes/slope2d.toml, what it tests)
+# name: (dx, overrides of scenes/slope2d.toml, what it tests[, another scene])
 VARIANTS = {
     "shipped": (0.05, [], "the shipped scene: the PST's weak layer (100 kg/m^3) with alpha 333 "
                 "(its fracture energy per area in a 0.2 m band), a brittle slab (xi 5), the "
@@ -241,6 +262,14 @@ VARIANTS = {
                 "90 kg/m^3 with alpha 500, a 0.5 m slab, 39 degrees at the steepest"),
     **{f"cut-all-no-{name}": (0.05, cut_all_but(name), f"cut-all without {name}")
        for name in CUT},
+    # The cut itself, with slope2d's rules for the fractures (CONTACT_X): are its fractures
+    # farther behind the tip than slope2d's, or only fewer?
+    "cut-whole": (0.05, CUT_RUN, "the 3D slope's plane-strain cut, whole profile, dx 0.05, "
+                  "weak 90 with alpha 500, no slip surface", CUT_SCENE),
+    "cut-whole-tilted": (0.05, CUT_RUN + TILTED, "the same with gravity tilted 6 degrees: 45 "
+                         "degrees at the top", CUT_SCENE),
+    "cut-whole-tilted-weak93": (0.05, CUT_RUN + TILTED + ["material.weak.density=93"],
+                                "the same with a 93 kg/m^3 layer", CUT_SCENE),
     "concave-top30": (0.05, CONCAVE_TOP[30],
                       "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
                       "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
@@ -285,8 +314,8 @@ VARIANTS = {
 }
 
 
-def run(firn, dx, overrides, out, end_time, threads):
-    args = [firn, "run", os.path.join(ROOT, "scenes", "slope2d.toml"), "--quiet", "--out", out,
+def run(firn, scene, dx, overrides, out, end_time, threads):
+    args = [firn, "run", scene, "--quiet", "--out", out,
             "--set", f"grid.dx={dx}", "--set", f"simulation.end_time={end_time}",
             "--set", f"simulation.frame_rate={FRAME_RATE:g}", "--set", "output.particles=false",
             "--set", 'output.volumes=["eta"]']
@@ -300,12 +329,12 @@ def run(firn, dx, overrides, out, end_time, threads):
         return json.load(f), time.time() - start
 
 
-def profile_points(overrides=()):
+def profile_points(scene, overrides=()):
     """The ground profile a run stands on: the scene's, or the one its overrides give."""
     for o in overrides:
         if o.startswith("terrain.slope.points="):
             return json.loads(o.split("=", 1)[1])
-    with open(os.path.join(ROOT, "scenes", "slope2d.toml"), "rb") as f:
+    with open(scene, "rb") as f:
         return tomllib.load(f)["terrain"][0]["points"]
 
 
@@ -321,9 +350,21 @@ def along_slope(points, x0, x1):
     return length if x1 >= x0 else -length
 
 
+def upslope_tips(summary, out):
+    """The crack's up-slope end as (time, x): summary.json's crack_tip_steps (timed to the
+    step) where the leading end runs up-slope (slope2d), else metrics.csv's crack_tip_min_x at
+    each frame (the cut, whose leading end runs down to the layer's end)."""
+    tips = [(t["time"], t["x"]) for t in summary["crack_tip_steps"]]
+    if tips and tips[-1][1] < tips[0][1]:
+        return tips
+    with open(os.path.join(out, "metrics.csv")) as f:
+        return [(float(r["time"]), float(r["crack_tip_min_x"])) for r in csv.DictReader(f)
+                if r["crack_tip_min_x"]]
+
+
 def first_pass(tips, x):
-    """Time the crack's up-slope end first reached x (tips: summary.json's crack_tip_steps)."""
-    return next((t["time"] for t in tips if t["x"] <= x), None)
+    """Time the crack's up-slope end first reached x (tips: upslope_tips)."""
+    return next((t for t, tip_x in tips if tip_x <= x), None)
 
 
 def ms_after_tip(tips, fracture):
@@ -335,8 +376,16 @@ def ms_after_tip(tips, fracture):
     return f"{1000.0 * (fracture['time'] - passed):.0f}"
 
 
-def tip_at(tips, time_s):
-    return min((t["x"] for t in tips if t["time"] <= time_s), default=None)
+def behind_along_slope(points, fracture, key):
+    """How far behind the up-slope tip a fracture lies along the slope, m: summary.json's
+    `key` (distance_behind_crack_tip, or ..._at_start) is along x from the step-timed end on
+    the fracture's side; None without a crack then."""
+    d = fracture.get(key)
+    return None if d is None else along_slope(points, fracture["x"] - d, fracture["x"])
+
+
+def joined(values, fmt="{:.2f}"):
+    return " ".join("" if v is None else fmt.format(v) for v in values)
 
 
 def column_eta(out, frames, dx, x):
@@ -385,31 +434,42 @@ def main():
     if os.path.exists(results):  # a subset of variants replaces only its own rows
         with open(results) as f:
             kept = {row["variant"]: row for row in csv.DictReader(f)}
-    rows = []
+    rows, pooled = [], {}
     with tempfile.TemporaryDirectory() as work:
         runs = [(name, name, []) for name in args.variants]
         if args.seeds:
             runs = [(f"{name}@seed{seed}", name, [f"simulation.seed={seed}"])
                     for name in args.variants for seed in args.seeds]
         for name, variant, seed_override in runs:
-            dx, overrides, note = VARIANTS[variant]
+            dx, overrides, note, *other = VARIANTS[variant]
+            scene = other[0] if other else SLOPE2D
             overrides = overrides + seed_override
-            points = profile_points(overrides)
+            points = profile_points(scene, overrides)
             out = os.path.join(work, name)
-            summary, seconds = run(args.firn, dx, overrides, out, args.end_time, args.threads)
-            tips = summary["crack_tip_steps"]
-            t10, t5 = first_pass(tips, 10.0), first_pass(tips, 5.0)
-            section_speed = (5.0 * math.sqrt(2.0) / (t5 - t10)
-                             if t10 is not None and t5 is not None and t5 > t10 else None)
+            summary, seconds = run(args.firn, scene, dx, overrides, out, args.end_time,
+                                   args.threads)
+            tips = upslope_tips(summary, out)
             top = first_pass(tips, 0.6)
-            frames = int(round(args.end_time * FRAME_RATE)) + 1
-            eta = column_eta(out, frames, dx, 7.5)
-            onset, softened = first_frame_at_least(eta, 0.01), first_frame_at_least(eta, 1.0)
-            lag = softened - onset if onset is not None and softened is not None else None
-            front = (softened_front(out, int(round(onset * FRAME_RATE)), dx, 7.5)
-                     if onset is not None else None)
+            section_speed = lag = front = None
+            if scene == SLOPE2D:  # its 45 degree section, and the process zone at x = 7.5 m
+                t10, t5 = first_pass(tips, 10.0), first_pass(tips, 5.0)
+                if t10 is not None and t5 is not None and t5 > t10:
+                    section_speed = 5.0 * math.sqrt(2.0) / (t5 - t10)
+                frames = int(round(args.end_time * FRAME_RATE)) + 1
+                eta = column_eta(out, frames, dx, 7.5)
+                onset, softened = first_frame_at_least(eta, 0.01), first_frame_at_least(eta, 1.0)
+                lag = softened - onset if onset is not None and softened is not None else None
+                front = (softened_front(out, int(round(onset * FRAME_RATE)), dx, 7.5)
+                         if onset is not None else None)
+            contact = CONTACT_X[scene]
             running = [f for f in summary["slab_fractures"]
-                       if f["x"] < 10.5 and (top is None or f["time"] <= top)]
+                       if f["x"] < contact - 2.0 and (top is None or f["time"] <= top)]
+            behind = [behind_along_slope(points, f, "distance_behind_crack_tip") for f in running]
+            at_start = [behind_along_slope(points, f, "distance_behind_crack_tip_at_start")
+                        for f in running]
+            pooled.setdefault(variant, []).extend(
+                (b, a) for f, b, a in zip(running, behind, at_start)
+                if f["x"] < contact - 3.0 and b is not None)
             row = {
                 "variant": name, "dx": dx, "overrides": " ".join(overrides), "note": note,
                 "mean_crack_speed": round(summary["mean_crack_speed"] or 0.0, 1),
@@ -420,18 +480,33 @@ def main():
                 "softening_lag_s": round(lag, 4) if lag is not None else "",
                 "process_zone_m": round((front - 7.5) * math.sqrt(2.0), 2) if front else "",
                 "fractures_while_running": len(running),
-                "fracture_x": " ".join(f"{f['x']:.2f}" for f in running),
-                "fracture_time": " ".join(f"{f['time']:.3f}" for f in running),
-                "behind_tip_m": " ".join(
-                    f"{along_slope(points, tip_at(tips, f['time']), f['x']):.2f}"
-                    for f in running),
-                "start_depth": " ".join(f"{f['start_depth_fraction']:.2f}" for f in running),
-                "tip_at_fracture": " ".join(f"{tip_at(tips, f['time']):.2f}" for f in running),
+                "fracture_x": joined(f["x"] for f in running),
+                "fracture_time": joined((f["time"] for f in running), "{:.3f}"),
+                "behind_tip_m": joined(behind),
+                "start_depth": joined(f["start_depth_fraction"] for f in running),
+                "tip_at_fracture": joined(
+                    None if f.get("distance_behind_crack_tip") is None
+                    else f["x"] - f["distance_behind_crack_tip"] for f in running),
                 "ms_after_tip_passed": " ".join(ms_after_tip(tips, f) for f in running),
                 "wall_seconds": round(seconds, 1),
+                "scene": os.path.relpath(scene, ROOT),
+                "fracture_start_time": joined((f.get("start_time") for f in running), "{:.3f}"),
+                "behind_tip_at_start_m": joined(at_start),
+                "settle_overloaded_particles": summary.get("settle_overloaded_particles"),
+                "settle_overloaded_x": joined((summary.get("settle_overloaded_x_min"),
+                                               summary.get("settle_overloaded_x_max"))),
             }
             rows.append(row)
             print(row, flush=True)
+    for variant, distances in pooled.items():
+        through = sorted(b for b, _ in distances)
+        started = sorted(a for _, a in distances if a is not None)
+        print(f"{variant}: {len(through)} fractures 3 m or more up-slope of the snowman while the "
+              f"crack runs; behind the tip as they go through: median "
+              f"{statistics.median(through) if through else float('nan'):.2f} m, nearest "
+              f"{min(through, default=float('nan')):.2f} m; as they start: median "
+              f"{statistics.median(started) if started else float('nan'):.2f} m, nearest "
+              f"{min(started, default=float('nan')):.2f} m")
     fresh = {row["variant"]: row for row in rows}
     names = list(VARIANTS) + sorted((set(fresh) | set(kept)) - set(VARIANTS))
     ordered = [fresh.get(name) or kept[name] for name in names if name in fresh or name in kept]

@@ -458,12 +458,13 @@ def along_ground(run, x0, x1):
     return length
 
 
-def behind_along_slope(run, fracture):
+def behind_along_slope(run, fracture, key="distance_behind_crack_tip"):
     """A slab fracture's distance behind the crack tip along the ground (the paper's measure),
-    from summary.json's distance along x: the tip is the crack's end on the fracture's side of
-    where the crack started (its first step-timed position). None without a distance, a
-    profile terrain or the crack's start."""
-    d = fracture.get("distance_behind_crack_tip")
+    from summary.json's distance along x (`key`: as it went through, or
+    distance_behind_crack_tip_at_start, as it began): the tip is the crack's end on the
+    fracture's side of where the crack started (its first step-timed position). None without a
+    distance, a profile terrain or the crack's start."""
+    d = fracture.get(key)
     steps = run.summary.get("crack_tip_steps") or []
     if d is None or not steps:
         return None
@@ -539,6 +540,14 @@ def behind_distance(run, fracture):
         return behind_front(run.arrival(), fracture, run.dx)
     d = behind_along_slope(run, fracture)
     return fracture.get("distance_behind_crack_tip") if d is None else d
+
+
+def start_behind(run, fracture):
+    """How far behind the crack tip a fracture was when it began (its first fractured particle),
+    along the ground profile, else along x; None for runs written before start_time existed."""
+    key = "distance_behind_crack_tip_at_start"
+    d = behind_along_slope(run, fracture, key)
+    return fracture.get(key) if d is None else d
 
 
 def front_speed(distance, time, near=0.5, span=1.0):
@@ -734,6 +743,13 @@ def slab_fracture_chart(run, path):
             if d is not None:
                 a.annotate(f"{d:.2f} m", (f["time"], f["x"]), textcoords="offset points",
                            xytext=(4, -10), fontsize=7, color="0.3")
+    started = [f for f in fractures if f.get("start_time") is not None]
+    if started:
+        a.plot([f["start_time"] for f in started], [f["x"] for f in started], "s", ms=6,
+               mfc="none", color="0.35", label="where it started (first fractured particle)",
+               clip_on=False)
+        for f in started:
+            a.plot([f["start_time"], f["time"]], [f["x"], f["x"]], "-", color="0.6", lw=0.8)
     a.set_xlim(t[0], t[-1])
     low, high = a.get_ylim()
     if high - low < 1.0:  # a lone fracture: show a metre around it
@@ -810,12 +826,16 @@ def slab_fracture_table(run):
         f"<td class=num>{format_value(f.get('distance_behind_crack_tip'))}</td>"
         f"<td class=num>{format_value(behind_along_slope(run, f))}</td>"
         + (f"<td class=num>{format_value(behind_front(run.arrival(), f, run.dx))}</td>" if plan else "")
+        + f"<td class=num>{format_value(f.get('start_time'))}</td>"
+        f"<td class=num>{format_value(start_behind(run, f))}</td>"
         + "</tr>"
         for k, f in enumerate(run.slab_fractures))
     return ("<table>\n<tr><th>#</th><th>x (m)</th><th>z (m)</th><th>time (s)</th>"
             "<th>start depth fraction</th><th>distance behind crack tip, along x (m)</th>"
             "<th>along the slope (m)</th>"
-            + ("<th>behind the crack's front, in plan (m)</th>" if plan else "") + "</tr>\n"
+            + ("<th>behind the crack's front, in plan (m)</th>" if plan else "")
+            + "<th>started (s)</th><th>behind the tip as it started, along the slope "
+            "(along x off a profile) (m)</th></tr>\n"
             f"{rows}\n</table>")
 
 
@@ -1098,7 +1118,9 @@ def slab_section(run, out, written):
         "<code>snow</code>) is fractured once its cohesion p<sub>0</sub> has softened through "
         "dilation to half its initial value; a fracture goes through the slab where fractured "
         "particles fill 80 % of the slab's thickness (cells of dx along the bed, rows of dx "
-        "normal to it). Left: position and time where each went through, with the weak-layer "
+        "normal to it). Left: position and time where each went through (filled), joined to "
+        "where and when it began (open: the window's first fractured particle; the table gives "
+        "how far behind the tip that was), with the weak-layer "
         "crack tip (labels: distance behind the tip that passed it, along the ground profile; "
         "along x on other terrain; in 3D, behind the crack's front in plan, from "
         "crack_arrival.csv: to the nearest bed cell the crack had not reached when the fracture "

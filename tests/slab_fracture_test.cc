@@ -71,6 +71,7 @@ TEST_CASE("a fracture through the slab is found at its bin, time and start depth
         // 8 rows of 5 cm hold the slab; the 7th (80 %) is first reached by particle j = 12.
         CHECK(bins[0].time == Approx(0.112));
         CHECK(bins[0].startDepthFraction == Approx(0.0).margin(1e-6));
+        CHECK(bins[0].startTime == Approx(0.1)); // particle j = 0, the bottom row
 
         SlabFractureTracker tracker;
         const CrackTracker crack = runningCrack();
@@ -83,6 +84,9 @@ TEST_CASE("a fracture through the slab is found at its bin, time and start depth
         CHECK(f.startDepthFraction == Approx(0.0).margin(1e-6));
         // tip at 0.112 s: 1.5 + 10 m/s * 0.112 s = 2.62 m, ahead of the fracture
         CHECK(f.distanceBehindCrackTip == Approx(2.62 - 1.025));
+        // where it began, at 0.1 s: the tip at 1.5 + 10 m/s * 0.1 s = 2.5 m
+        CHECK(f.startTime == Approx(0.1));
+        CHECK(f.distanceBehindCrackTipAtStart == Approx(2.5 - 1.025));
         CHECK(tracker.fracturedMassFraction() == Approx(32.0 / (80 * 16)));
     }
     SECTION("from the top (as in the PST)") {
@@ -91,10 +95,13 @@ TEST_CASE("a fracture through the slab is found at its bin, time and start depth
         const auto bins = findThroughBins(samples, kDx, 2);
         REQUIRE(bins.size() == 1);
         CHECK(bins[0].startDepthFraction == Approx(1.0));
+        CHECK(bins[0].startTime == Approx(0.1)); // particle j = 15, the top row
+        CHECK(bins[0].time == Approx(0.112));
         SlabFractureTracker tracker;
         tracker.update(samples, kDx, 2, 0.2, CrackTracker{});
         REQUIRE(tracker.fractures().size() == 1);
         CHECK(std::isnan(tracker.fractures()[0].distanceBehindCrackTip)); // no weak layer crack
+        CHECK(std::isnan(tracker.fractures()[0].distanceBehindCrackTipAtStart));
     }
 }
 
@@ -293,6 +300,7 @@ TEST_CASE("a slab pulled apart fractures in tension where it is pulled", "[slab_
     INFO("first fracture at x = " << first.x << " m, t = " << first.time << " s");
     CHECK(std::abs(first.x - 1.0) < 0.15);
     CHECK(first.time < 0.02);
+    CHECK(first.startTime <= first.time);
     CHECK(std::isnan(first.distanceBehindCrackTip));
     CHECK(tracker.blocks().count >= 2);
     CHECK(tracker.fracturedMassFraction() < 0.5); // the halves themselves stay whole
@@ -304,6 +312,7 @@ TEST_CASE("a slab pulled apart fractures in tension where it is pulled", "[slab_
         CHECK(serial.fractures()[k].time == tracker.fractures()[k].time);
         CHECK(serial.fractures()[k].startDepthFraction ==
               tracker.fractures()[k].startDepthFraction);
+        CHECK(serial.fractures()[k].startTime == tracker.fractures()[k].startTime);
     }
     CHECK(serial.blocks().count == tracker.blocks().count);
 
@@ -319,6 +328,8 @@ TEST_CASE("a slab pulled apart fractures in tension where it is pulled", "[slab_
         CHECK(summary.find("\"first_slab_fracture_time\": ") != std::string::npos);
         CHECK(summary.find("\"start_depth_fraction\": ") != std::string::npos);
         CHECK(summary.find("\"distance_behind_crack_tip\": null") != std::string::npos);
+        CHECK(summary.find("\"start_time\": ") != std::string::npos);
+        CHECK(summary.find("\"distance_behind_crack_tip_at_start\": null") != std::string::npos);
         CHECK(summary.find("\"final_slab_blocks\": ") != std::string::npos);
         const std::string metrics = slurp(dir.path() + "/metrics.csv");
         const std::string header = metrics.substr(0, metrics.find('\n'));

@@ -48,7 +48,8 @@ struct ThroughBin {
     /// Where the first fractured particle of the bin sits in the slab's thickness there:
     /// 0 at the bottom (the weak-layer interface), 1 at the top surface.
     double startDepthFraction = 0.0;
-    double startY = 0.0; ///< world y of that particle, m
+    double startY = 0.0;    ///< world y of that particle, m
+    double startTime = 0.0; ///< s: when that particle fractured, the fracture's start
 };
 
 /// The bins fractured through the slab, ordered by (iz, ix). Deterministic: the result does not
@@ -72,6 +73,10 @@ struct SlabFracture {
     /// m: weak-layer crack tip at `time` minus x, along the tip's direction of travel (> 0:
     /// behind the tip); NaN while there is no crack.
     double distanceBehindCrackTip = std::numeric_limits<double>::quiet_NaN();
+    double startTime = 0.0; ///< s, ThroughBin::startTime of that bin (<= time)
+    /// m: the same distance at `startTime`, where the slab crack began (Gaume et al. 2019 place
+    /// their en-echelon fractures against the tip where they appear, not where they end).
+    double distanceBehindCrackTipAtStart = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Records slab fractures as they go through, and the slab's blocks, once per output frame.

@@ -334,6 +334,8 @@ void writeSlabSummary(const World& w, const SlabFractureTracker& slab, JsonObjec
         o.set("time", f.time);
         o.set("start_depth_fraction", f.startDepthFraction);
         o.set("distance_behind_crack_tip", f.distanceBehindCrackTip);
+        o.set("start_time", f.startTime);
+        o.set("distance_behind_crack_tip_at_start", f.distanceBehindCrackTipAtStart);
         fractures.push_back(o);
     }
     j.set("slab_fracture_count", static_cast<long long>(fractures.size()));

@@ -87,6 +87,7 @@ bool throughWindow(const std::vector<const SlabSample*>& window, double dx, Thro
         bin.time = s->fractureTime;
         bin.startDepthFraction = hi > lo ? (first.height - lo) / (hi - lo) : 0.0;
         bin.startY = first.position[1];
+        bin.startTime = first.fractureTime;
         return true;
     }
     return false;
@@ -236,6 +237,9 @@ void SlabFractureTracker::update(const std::vector<SlabSample>& samples, double 
         f.startDepthFraction = bin.startDepthFraction;
         const double behind = crack.distanceBehind(f.x, f.time);
         if (std::isfinite(behind)) f.distanceBehindCrackTip = behind;
+        f.startTime = bin.startTime;
+        const double behindAtStart = crack.distanceBehind(f.x, f.startTime);
+        if (std::isfinite(behindAtStart)) f.distanceBehindCrackTipAtStart = behindAtStart;
         found.push_back(f);
     }
     std::sort(found.begin(), found.end(), [](const SlabFracture& a, const SlabFracture& b) {

@@ -488,9 +488,15 @@ def check_behind_along_slope():
           f"across the kink: 0.5 m on 45 degrees and 0.5 m flat ({across})")
     down = report.behind_along_slope(run, {"x": 14.0, "distance_behind_crack_tip": -0.5})
     check(abs(down + 0.5) < 1e-9, f"ahead of the down-slope tip on the flat ({down})")
+    began = {"x": 6.0, "distance_behind_crack_tip": 1.0, "distance_behind_crack_tip_at_start": 0.25}
+    start = report.start_behind(run, began)
+    check(abs(start - 0.25 * math.sqrt(2.0)) < 1e-9, f"as it began, on 45 degrees ({start})")
+    check(report.start_behind(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
+          "a run written before start_time: no distance as it began")
     run.scene = {"terrain": [{"shape": "plane"}]}
     check(report.behind_along_slope(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
           "no profile: no distance along the slope")
+    check(report.start_behind(run, began) == 0.25, "no profile: as it began, along x")
 
 
 def check_crack_origin():
