@@ -543,8 +543,13 @@ def behind_distance(run, fracture):
 
 
 def start_behind(run, fracture):
-    """How far behind the crack tip a fracture was when it began (its first fractured particle),
-    along the ground profile, else along x; None for runs written before start_time existed."""
+    """How far behind the crack a fracture was when it began (its first fractured particle): as
+    `behind_distance` reads it, at start_time (in 3D behind the front in plan, else along the
+    ground profile, else along x); None for runs written before start_time existed."""
+    if fracture.get("start_time") is None:
+        return None
+    if run.dimension == 3 and run.arrival() is not None:
+        return behind_front(run.arrival(), {**fracture, "time": fracture["start_time"]}, run.dx)
     key = "distance_behind_crack_tip_at_start"
     d = behind_along_slope(run, fracture, key)
     return fracture.get(key) if d is None else d
@@ -834,8 +839,9 @@ def slab_fracture_table(run):
             "<th>start depth fraction</th><th>distance behind crack tip, along x (m)</th>"
             "<th>along the slope (m)</th>"
             + ("<th>behind the crack's front, in plan (m)</th>" if plan else "")
-            + "<th>started (s)</th><th>behind the tip as it started, along the slope "
-            "(along x off a profile) (m)</th></tr>\n"
+            + "<th>started (s)</th><th>behind the crack as it started ("
+            + ("in plan" if plan else "along the slope; along x off a profile") + ") (m)</th>"
+            "</tr>\n"
             f"{rows}\n</table>")
 
 

@@ -477,6 +477,7 @@ def check_behind_along_slope():
     import report  # noqa: E402
 
     class Run:
+        dimension = 2
         scene = {"terrain": [{"shape": "profile", "points": [[0, 10], [10, 0], [20, 0]]}]}
         summary = {"crack_tip_steps": [{"time": 0.2, "x": 12.0}, {"time": 0.3, "x": 8.0}]}
 
@@ -488,7 +489,8 @@ def check_behind_along_slope():
           f"across the kink: 0.5 m on 45 degrees and 0.5 m flat ({across})")
     down = report.behind_along_slope(run, {"x": 14.0, "distance_behind_crack_tip": -0.5})
     check(abs(down + 0.5) < 1e-9, f"ahead of the down-slope tip on the flat ({down})")
-    began = {"x": 6.0, "distance_behind_crack_tip": 1.0, "distance_behind_crack_tip_at_start": 0.25}
+    began = {"x": 6.0, "distance_behind_crack_tip": 1.0, "start_time": 0.25,
+             "distance_behind_crack_tip_at_start": 0.25}
     start = report.start_behind(run, began)
     check(abs(start - 0.25 * math.sqrt(2.0)) < 1e-9, f"as it began, on 45 degrees ({start})")
     check(report.start_behind(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
@@ -544,6 +546,17 @@ def check_behind_front():
           f"off the bed (no cell of its own): ahead, 2.95 m ({outside})")
     check(report.behind_front(None, {"x": 5.0, "z": 3.0, "time": when}, dx) is None,
           "no crack_arrival.csv: no measure")
+
+    class Run:  # a 3D run: where a fracture began is read against the front at start_time
+        dimension = 3
+
+        def arrival(self):
+            return arrival
+    Run.dx = dx
+    began = report.start_behind(Run(), {"x": 5.0, "z": 3.0, "time": 10.0,
+                                        "start_time": 0.2 + 1.55 / 25.0})
+    check(began is not None and abs(began - 0.55) <= dx,
+          f"as it began, 0.55 m behind the front in plan ({began})")
 
 
 def main():
