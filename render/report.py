@@ -533,24 +533,16 @@ def behind_front(arrival, fracture, dx):
     return -float(distance[reached].min())
 
 
-def behind_distance(run, fracture):
+def behind_distance(run, fracture, began=False):
     """The distance behind the crack a fracture's label shows: behind the front in plan in 3D
-    (`behind_front`), else along the ground profile, else along x (summary.json)."""
-    if run.dimension == 3 and run.arrival() is not None:
-        return behind_front(run.arrival(), fracture, run.dx)
-    d = behind_along_slope(run, fracture)
-    return fracture.get("distance_behind_crack_tip") if d is None else d
-
-
-def start_behind(run, fracture):
-    """How far behind the crack a fracture was when it began (its first fractured particle): as
-    `behind_distance` reads it, at start_time (in 3D behind the front in plan, else along the
-    ground profile, else along x); None for runs written before start_time existed."""
-    if fracture.get("start_time") is None:
+    (`behind_front`), else along the ground profile, else along x (summary.json); as it went
+    through, or with `began` as it began (start_time; None for runs written before it existed)."""
+    key = "distance_behind_crack_tip_at_start" if began else "distance_behind_crack_tip"
+    if began and fracture.get("start_time") is None:
         return None
     if run.dimension == 3 and run.arrival() is not None:
-        return behind_front(run.arrival(), {**fracture, "time": fracture["start_time"]}, run.dx)
-    key = "distance_behind_crack_tip_at_start"
+        at = {**fracture, "time": fracture["start_time"]} if began else fracture
+        return behind_front(run.arrival(), at, run.dx)
     d = behind_along_slope(run, fracture, key)
     return fracture.get(key) if d is None else d
 
@@ -832,7 +824,7 @@ def slab_fracture_table(run):
         f"<td class=num>{format_value(behind_along_slope(run, f))}</td>"
         + (f"<td class=num>{format_value(behind_front(run.arrival(), f, run.dx))}</td>" if plan else "")
         + f"<td class=num>{format_value(f.get('start_time'))}</td>"
-        f"<td class=num>{format_value(start_behind(run, f))}</td>"
+        f"<td class=num>{format_value(behind_distance(run, f, began=True))}</td>"
         + "</tr>"
         for k, f in enumerate(run.slab_fractures))
     return ("<table>\n<tr><th>#</th><th>x (m)</th><th>z (m)</th><th>time (s)</th>"

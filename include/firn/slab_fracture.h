@@ -74,8 +74,8 @@ struct SlabFracture {
     /// behind the tip); NaN while there is no crack.
     double distanceBehindCrackTip = std::numeric_limits<double>::quiet_NaN();
     double startTime = 0.0; ///< s, ThroughBin::startTime of that bin (<= time)
-    /// m: the same distance at `startTime`, where the slab crack began (Gaume et al. 2019 place
-    /// their en-echelon fractures against the tip where they appear, not where they end).
+    /// m: the same distance at `startTime`, where the slab crack began (Gaume et al. 2019 give
+    /// one distance, "< 1 m", without saying at which moment: both are recorded).
     double distanceBehindCrackTipAtStart = std::numeric_limits<double>::quiet_NaN();
 };
 

@@ -491,14 +491,16 @@ def check_behind_along_slope():
     check(abs(down + 0.5) < 1e-9, f"ahead of the down-slope tip on the flat ({down})")
     began = {"x": 6.0, "distance_behind_crack_tip": 1.0, "start_time": 0.25,
              "distance_behind_crack_tip_at_start": 0.25}
-    start = report.start_behind(run, began)
+    start = report.behind_distance(run, began, began=True)
     check(abs(start - 0.25 * math.sqrt(2.0)) < 1e-9, f"as it began, on 45 degrees ({start})")
-    check(report.start_behind(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
+    check(report.behind_distance(run, {"x": 6.0, "distance_behind_crack_tip": 1.0},
+                                 began=True) is None,
           "a run written before start_time: no distance as it began")
     run.scene = {"terrain": [{"shape": "plane"}]}
     check(report.behind_along_slope(run, {"x": 6.0, "distance_behind_crack_tip": 1.0}) is None,
           "no profile: no distance along the slope")
-    check(report.start_behind(run, began) == 0.25, "no profile: as it began, along x")
+    check(report.behind_distance(run, began, began=True) == 0.25,
+          "no profile: as it began, along x")
 
 
 def check_crack_origin():
@@ -553,8 +555,8 @@ def check_behind_front():
         def arrival(self):
             return arrival
     Run.dx = dx
-    began = report.start_behind(Run(), {"x": 5.0, "z": 3.0, "time": 10.0,
-                                        "start_time": 0.2 + 1.55 / 25.0})
+    began = report.behind_distance(Run(), {"x": 5.0, "z": 3.0, "time": 10.0,
+                                        "start_time": 0.2 + 1.55 / 25.0}, began=True)
     check(began is not None and abs(began - 0.55) <= dx,
           f"as it began, 0.55 m behind the front in plan ({began})")
 
