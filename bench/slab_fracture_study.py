@@ -268,8 +268,6 @@ VARIANTS = {
                   "weak 90 with alpha 500, no slip surface", CUT_SCENE),
     "cut-whole-tilted": (0.05, CUT_RUN + TILTED, "the same with gravity tilted 6 degrees: 45 "
                          "degrees at the top", CUT_SCENE),
-    "cut-whole-tilted-weak93": (0.05, CUT_RUN + TILTED + ["material.weak.density=93"],
-                                "the same with a 93 kg/m^3 layer", CUT_SCENE),
     "concave-top30": (0.05, CONCAVE_TOP[30],
                       "the paper's curvatures: 45 degrees at the top, a 30 degree bench at x "
                       "8-10 m, a convex roll to 38 degrees under the snowman (x 12.75 m)"),
