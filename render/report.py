@@ -34,6 +34,7 @@ DPI = 120
 CMAP_FAILED = "gray"
 CMAP_P = "inferno"
 CMAP_SPEED = "Reds"
+CMAP_SLAB_P = "RdBu_r"  # diverging: the slab's p changes sign where it is pulled apart
 # Cells without weak layer (the saw cut, outside the layer) are drawn in this colour, distinct
 # from both ends of the grey failed/elastic scale.
 NO_LAYER = "#c9d6e3"
@@ -256,21 +257,24 @@ def cell_index(coord, dx):
 
 # Failure maps ----------------------------------------------------------------------------------
 
-# (column of weak_layer.csv, title, colour map, colour-bar label, short name for small panels)
+# (column of weak_layer.csv, title, colour map, colour-bar label, short name for small panels),
+# in Fig. A1's order: the weak layer failed and its p, the slab failed and its p, the slab's speed.
 MAP_ROWS = (
     ("failed_fraction", "weak layer failed (white) / elastic (black)", CMAP_FAILED,
      "failed fraction", "failed / elastic"),
     ("p", "weak-layer pressure p", CMAP_P, "p (kPa)", "pressure p"),
-    ("slab_speed", "slab speed above the weak layer", CMAP_SPEED, "speed (m/s)", "slab speed"),
     ("slab_failed_fraction", "slab above: failed (white) / elastic (black)", CMAP_FAILED,
      "failed fraction", "slab failed"),
+    ("slab_p", "slab above: pressure p (blue: tension)", CMAP_SLAB_P, "p (kPa)", "slab p"),
+    ("slab_speed", "slab speed above the weak layer", CMAP_SPEED, "speed (m/s)", "slab speed"),
 )
 FRACTION_KEYS = ("failed_fraction", "slab_failed_fraction")
+PRESSURE_KEYS = ("p", "slab_p")
 
 
 def map_value(run, key):
     values = run.weak[key]
-    return values / 1000.0 if key == "p" else values  # Pa -> kPa reads better
+    return values / 1000.0 if key in PRESSURE_KEYS else values  # Pa -> kPa reads better
 
 
 def map_ranges(run, frames_mask):
@@ -281,6 +285,10 @@ def map_ranges(run, frames_mask):
             ranges[key] = (0.0, 1.0)
         elif key == "slab_speed":
             ranges[key] = (0.0, max(shared_range(values)[1], 1e-3))
+        elif key == "slab_p":
+            # Centred on zero, so that the slab's tension and compression read apart.
+            reach = max(np.abs(shared_range(values)).max(), 1e-3)
+            ranges[key] = (-reach, reach)
         else:
             ranges[key] = shared_range(values)
     return ranges
@@ -340,8 +348,10 @@ def xt_grid(run, key):
 
 def failure_maps_2d(run, path):
     """x-time images: the weak layer along the slope (horizontal) as time goes on (upwards)."""
-    fig, axes = plt.subplots(2, 2, figsize=(15, 9.0), constrained_layout=True)
+    fig, axes = plt.subplots(3, 2, figsize=(15, 13.0), constrained_layout=True)
     axes = axes.ravel()
+    for ax in axes[len(MAP_ROWS):]:
+        ax.axis("off")
     ranges = map_ranges(run, np.ones(run.weak["frame"].size, dtype=bool))
     tip_t, tip_x = run.column("time"), run.column("crack_tip_x")
     for ax, (key, title, cmap, unit, _) in zip(axes, MAP_ROWS):
@@ -1068,8 +1078,10 @@ def map_section(run, out, written):
     times = ", ".join(f"{t:.3f}" for t in run.map_times)
     common = (f"Weak-layer particles binned on cells of the grid spacing (dx = {run.dx:g} m): "
               "the share of them that have yielded at least once (white: failed, black: "
-              "elastic), their mean pressure p, and the mean speed of the slab particles in the "
-              f"same column. Pale blue: no weak layer there (saw cut, or outside the layer). "
+              "elastic) and their mean pressure p; of the slab particles in the same column "
+              "(above the weak layer's mean height there), the share that have yielded, their "
+              "mean pressure p (red: compression, blue: tension, where the slab is pulled "
+              f"apart) and their mean speed. Pale blue: no weak layer there (saw cut, or outside the layer). "
               f"Map times ({how}): {times} s. After Gaume et al. (2019), Fig. A1.")
     parts = []
     if run.dimension == 3:

@@ -36,20 +36,20 @@ void addParticle(ParticleFrame& f, std::array<float, 3> P, std::int32_t material
 
 } // namespace
 
-TEST_CASE("2D weak-layer cells: failed share, means, and the slab speed and failed share above",
+TEST_CASE("2D weak-layer cells: failed share, means, and the slab speed, failed share and p above",
           "[report]") {
     ParticleFrame f;
     // Cell 0 (x in [0, 0.1)): one failed and one elastic weak-layer particle under a slab
     // particle moving at 5 m/s.
     addParticle(f, {0.02f, 0.01f, 0}, kWeak, {}, true, 0.2f, 1000);
     addParticle(f, {0.07f, 0.02f, 0}, kWeak, {}, false, 0.0f, 3000);
-    addParticle(f, {0.05f, 0.30f, 0}, kSlab, {3, 4, 0});
+    addParticle(f, {0.05f, 0.30f, 0}, kSlab, {3, 4, 0}, false, 0, 800);
     // A yielded, resting base particle below the weak layer: not slab, counted in neither mean.
-    addParticle(f, {0.05f, -0.10f, 0}, kSlab, {}, true);
-    // Cell 1: failed weak layer, two slab particles at 1 and 3 m/s.
+    addParticle(f, {0.05f, -0.10f, 0}, kSlab, {}, true, 0, 9000);
+    // Cell 1: failed weak layer, two slab particles at 1 and 3 m/s, one in tension (p < 0).
     addParticle(f, {0.15f, 0.01f, 0}, kWeak, {}, true, 0.4f, 500);
-    addParticle(f, {0.12f, 0.30f, 0}, kSlab, {1, 0, 0});
-    addParticle(f, {0.18f, 0.40f, 0}, kSlab, {0, -3, 0}, true);
+    addParticle(f, {0.12f, 0.30f, 0}, kSlab, {1, 0, 0}, false, 0, -3000);
+    addParticle(f, {0.18f, 0.40f, 0}, kSlab, {0, -3, 0}, true, 0, 1000);
     // Cell 2: slab only (a saw cut): no row. Cell -1: weak layer without slab above.
     addParticle(f, {0.25f, 0.30f, 0}, kSlab, {9, 0, 0});
     addParticle(f, {-0.05f, 0.01f, 0}, kWeak, {}, false, 0.0f, 200);
@@ -66,11 +66,14 @@ TEST_CASE("2D weak-layer cells: failed share, means, and the slab speed and fail
     CHECK(cells[1].p == Approx(2000));
     CHECK(cells[1].slabSpeed == Approx(5));
     CHECK(cells[1].slabFailedFraction == 0.0);
+    CHECK(cells[1].slabP == Approx(800)); // the base's 9000 Pa below the layer is not slab
     CHECK(std::isnan(cells[0].slabFailedFraction));
+    CHECK(std::isnan(cells[0].slabP));
     CHECK(cells[2].x == Approx(0.15));
     CHECK(cells[2].failedFraction == 1.0);
     CHECK(cells[2].slabSpeed == Approx(2));
     CHECK(cells[2].slabFailedFraction == Approx(0.5));
+    CHECK(cells[2].slabP == Approx(-1000));
 }
 
 TEST_CASE("weak-layer cells: the mean share of the initial strength the stress uses", "[report]") {

@@ -119,7 +119,7 @@ class WeakLayerTable {
 public:
     WeakLayerTable()
         : mText("frame,time,x,z,failed_fraction,eta,p,slab_speed,slab_failed_fraction,"
-                "strength_used\n") {}
+                "strength_used,slab_p\n") {}
 
     void add(const CachedFrame& frame, const std::vector<report::WeakLayerCell>& cells) {
         const std::string prefix =
@@ -128,7 +128,7 @@ public:
             mText += prefix + csvNumber(c.x) + "," + csvNumber(c.z) + "," +
                      csvNumber(c.failedFraction) + "," + csvNumber(c.eta) + "," + csvNumber(c.p) +
                      "," + csvNumber(c.slabSpeed) + "," + csvNumber(c.slabFailedFraction) + "," +
-                     csvNumber(c.strengthUsed) + "\n";
+                     csvNumber(c.strengthUsed) + "," + csvNumber(c.slabP) + "\n";
         }
     }
     const std::string& text() const { return mText; }

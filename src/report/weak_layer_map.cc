@@ -13,7 +13,7 @@ namespace {
 
 struct Sums {
     int weak = 0, failed = 0, slab = 0, slabFailed = 0;
-    double eta = 0, p = 0, weakHeight = 0, slabSpeed = 0, strengthUsed = 0;
+    double eta = 0, p = 0, weakHeight = 0, slabSpeed = 0, slabP = 0, strengthUsed = 0;
 };
 
 const WeakLayerMaterial* weakLayerOf(const std::vector<WeakLayerMaterial>& materials,
@@ -58,6 +58,7 @@ std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
         ++s.slab;
         s.slabFailed += frame.failed[i] != 0;
         s.slabSpeed += std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]);
+        s.slabP += frame.p[i];
     }
     std::vector<WeakLayerCell> out;
     for (const auto& [key, s] : cells) {
@@ -72,6 +73,7 @@ std::vector<WeakLayerCell> binWeakLayer(const ParticleFrame& frame,
         const double none = std::numeric_limits<double>::quiet_NaN();
         c.slabSpeed = s.slab > 0 ? s.slabSpeed / s.slab : none;
         c.slabFailedFraction = s.slab > 0 ? double(s.slabFailed) / s.slab : none;
+        c.slabP = s.slab > 0 ? s.slabP / s.slab : none;
         out.push_back(c);
     }
     return out;

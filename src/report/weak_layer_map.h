@@ -21,6 +21,9 @@ struct WeakLayerCell {
     /// Share of those slab particles that have yielded at least once (Fig. A1's slab map); NaN
     /// when it has none.
     double slabFailedFraction = 0;
+    /// Mean pressure p = -tr(tau)/d of those slab particles, Pa: negative where the slab is in
+    /// tension (Fig. A1's slab stress map); NaN when it has none.
+    double slabP = 0;
     /// Mean share of the initial strength the weak-layer particles' stress uses
     /// (camClayStrengthUsed on their material's initial surface): at t = 0 how close the static
     /// load is to failure (1: on the surface); after softening it still refers to the initial

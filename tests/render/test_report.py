@@ -296,6 +296,17 @@ def check_pst(binary, work):
     speed = weak["slab_speed"]
     check(bool(np.all(speed[np.isfinite(speed)] >= 0)) and np.nanmax(speed) > 0.05,
           "slab speeds are non-negative and the slab moves")
+    # The slab's p: given exactly where the column has slab (as its speed). This PST starts
+    # unstressed (no settling): as gravity loads it the slab is compressed by its own weight
+    # (p > 0 in most columns at the map times), and where the layer collapses under it, pulled
+    # apart in places (p < 0).
+    slab_p = weak["slab_p"]
+    check(np.array_equal(np.isfinite(slab_p), np.isfinite(speed)),
+          "the slab's p is given in the columns that have slab")
+    mapped = np.isin(weak["frame"], maps["frame"])
+    check(np.nanmedian(slab_p[mapped]) > 0 and np.nanmin(slab_p) < 0,
+          f"the slab is compressed by its weight (median p {np.nanmedian(slab_p[mapped]):.0f} Pa "
+          f"at the map times) and in tension in places (least {np.nanmin(slab_p):.0f} Pa)")
 
     # The frame at which the tip is nearest the middle of its travel: the weak layer there is
     # failed behind the tip and elastic ahead of it.
@@ -331,9 +342,9 @@ def check_pst(binary, work):
     for name in ("failure_maps", "failure_profiles", "strength_used", "crack", "slab_fractures",
                  "flow", "mcclung_gauer"):
         check_png(report_dir / f"{name}.png")
-    # The x-time image of the failed share (left panel of three): black elastic below the
-    # crack's path, white/grey failed above it.
-    left = panel(check_png(report_dir / "failure_maps.png"), 0.06, 0.24).mean(axis=2)
+    # The x-time image of the failed share (top left of five panels in three rows): black
+    # elastic below the crack's path, white/grey failed above it.
+    left = panel(check_png(report_dir / "failure_maps.png"), 0.06, 0.24, 0.05, 0.28).mean(axis=2)
     check(np.mean(left < 0.1) > 0.1 and np.mean((left > 0.6) & (left < 0.999)) > 0.05,
           f"the failure map shows elastic (black {np.mean(left < 0.1):.0%}) and failed "
           f"(light {np.mean((left > 0.6) & (left < 0.999)):.0%}) cells")
