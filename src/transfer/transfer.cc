@@ -45,12 +45,12 @@ template <int Dim> inline Stencil stencilOf(const Vec3f& x, float invDx, const L
     return s;
 }
 
-/// Adds one particle's contribution to the padded block. The value at node (a, b, c) is
-/// value + affine (node - particle) = (value - affine fx) + a col0 + b col1 + c col2 (grid
-/// units), built up incrementally across the loops instead of a matrix-vector product per node.
-template <int Dim, int NC, bool Affine, int AffineAt>
-inline void scatterParticle(const Stencil& s, const float (&value)[NC], const Mat3f& affine,
-                            float* buf) {
+/// Adds one particle's contribution to NC channels of the padded block, whose nodes are Stride
+/// floats apart. The value at node (a, b, c) is value + affine (node - particle) = (value -
+/// affine fx) + a col0 + b col1 + c col2 (grid units), built up incrementally across the loops
+/// instead of a matrix-vector product per node.
+template <int Dim, int NC, bool Affine, int AffineAt, int Stride = NC>
+inline void scatterParticle(const Stencil& s, const float* value, const Mat3f& affine, float* buf) {
     float base[NC];
     for (int ch = 0; ch < NC; ++ch) base[ch] = value[ch];
     if (Affine) {
@@ -69,7 +69,7 @@ inline void scatterParticle(const Stencil& s, const float (&value)[NC], const Ma
             for (int c = 0; c < nc; ++c) {
                 const float w = Dim == 3 ? wab * s.w[2][c] : wab;
                 float* out =
-                    buf + NC * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c);
+                    buf + Stride * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c);
                 for (int ch = 0; ch < NC; ++ch) out[ch] += w * v[ch];
                 if (Affine && Dim == 3)
                     for (int ch = 0; ch < 3; ++ch) v[AffineAt + ch] += affine(ch, 2);
@@ -119,14 +119,16 @@ inline void gatherParticle(const Stencil& s, const float* local, int channels, V
     B.col(2) = Dim == 3 ? Vec3f(m2 - s.fx[2] * vPic) : Vec3f::Zero();
 }
 
-/// Scatter phase. ParticleFn(i, float value[NC], Mat3f& affine) fills the constant part of the
-/// particle's contribution and, if Affine, a matrix (per metre) whose product with the node
-/// offset is added to channels AffineAt .. AffineAt + 2; it returns true where the affine part
-/// goes to channels AffineAtUpper .. + 2 instead (the upper field of a slip surface). With
+/// Scatter phase into padded blocks of NC channels per node. ParticleFn(i, float* value, Mat3f&
+/// affine) fills the constant part of the particle's channels and, if Affine, a matrix (per
+/// metre) whose product with the node offset is added to its channels AffineAt .. AffineAt + 2;
+/// it returns true for a particle of the upper field of a slip surface. A particle of the one
+/// field (or the lower one) fills channels 0 .. UpperAt - 1, one of the upper field channels
+/// UpperAt .. NC - 1 (value[0 ..], its affine part at AffineAt of them): each adds nothing to the
+/// other field's channels, where its zeros would leave every sum bitwise as it is. With
 /// skipDeepSleepers, leaves in deep sleep (ParticleSet::SleepLevel) scatter nothing: no awake
 /// particle reads those nodes.
-template <int Dim, int NC, bool Affine, int AffineAt, int AffineAtUpper = AffineAt,
-          typename ParticleFn>
+template <int Dim, int NC, bool Affine, int AffineAt, int UpperAt = NC, typename ParticleFn>
 void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipDeepSleepers,
                    ParticleFn&& fn) {
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
@@ -141,14 +143,14 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipD
                 float value[NC];
                 Mat3f affine = Mat3f::Zero();
                 const bool upper = fn(i, value, affine);
-                if constexpr (AffineAtUpper != AffineAt) {
+                if constexpr (UpperAt < NC) {
                     if (upper) {
-                        scatterParticle<Dim, NC, Affine, AffineAtUpper>(s, value, affine * ps.dx,
-                                                                        buf);
+                        scatterParticle<Dim, NC - UpperAt, Affine, AffineAt, NC>(
+                            s, value, affine * ps.dx, buf + UpperAt);
                         continue;
                     }
                 }
-                scatterParticle<Dim, NC, Affine, AffineAt>(s, value, affine * ps.dx, buf);
+                scatterParticle<Dim, UpperAt, Affine, AffineAt, NC>(s, value, affine * ps.dx, buf);
             }
         }
     });
@@ -229,25 +231,27 @@ inline Mat3f stressImpulse(const ParticleSet& ps, std::uint32_t i, float dt, flo
 /// P2G with a slip surface: each field gets its own mass, momentum and (FLIP) stress impulse, the
 /// lower field in Grid::mass / velocity / aux as with one field, the upper one in Grid::aux
 /// (AuxLayout), with the bond of every node from the weak layer's collapsed share of its mass.
+/// The padded channels: the lower field, the weak layer's two masses (lower-field particles),
+/// the upper field; a particle scatters only its own field's (scatterLeaves).
 template <int Dim, bool Flip>
 void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& params,
                   TransferScratch& scratch) {
     constexpr int perField = Flip ? 7 : 4; // mass, momentum, (stress impulse)
     constexpr int affineAt = Flip ? 4 : 1; // the stress impulse (with APIC's C on momentum)
-    constexpr int weakAt = 2 * perField;   // the weak layer's mass, and its uncollapsed mass
-    constexpr int NC = weakAt + 2;
+    constexpr int weakAt = perField;       // the weak layer's mass, and its uncollapsed mass
+    constexpr int upperAt = weakAt + 2;
+    constexpr int NC = upperAt + perField;
     const float dInv = apicInverseD(1.f / params.dx);
     const bool apic = params.transfer == Transfer::Apic;
-    scatterLeaves<Dim, NC, true, affineAt, perField + affineAt>(
+    scatterLeaves<Dim, NC, true, affineAt, upperAt>(
         ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
             const std::uint32_t flags = ps.plastic[i].flags;
             const bool upper = flags & kFlagUpperField;
-            for (int ch = 0; ch < NC; ++ch) value[ch] = 0.f;
+            for (int ch = 0; ch < upperAt; ++ch) value[ch] = 0.f;
             const float m = ps.mass[i];
-            float* field = value + (upper ? perField : 0);
-            field[0] = m, field[1] = m * ps.v[i][0], field[2] = m * ps.v[i][1];
-            field[3] = m * ps.v[i][2];
-            if (ps.material[i] == params.slipMaterial) {
+            value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
+            value[3] = m * ps.v[i][2];
+            if (!upper && ps.material[i] == params.slipMaterial) {
                 value[weakAt] = m;
                 value[weakAt + 1] = (flags & kFlagCollapsed) ? 0.f : m;
             }
@@ -268,10 +272,10 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
             for (int c = 0; c < 3; ++c) {
                 mom[3 * n + c] = a[1 + c];
                 if (Flip) x[layout.lowerReference() + c] = a[4 + c];
-                x[layout.upperVelocity() + c] = a[perField + 1 + c];
-                if (Flip) x[layout.upperReference() + c] = a[perField + 4 + c];
+                x[layout.upperVelocity() + c] = a[upperAt + 1 + c];
+                if (Flip) x[layout.upperReference() + c] = a[upperAt + 4 + c];
             }
-            x[layout.upperMass()] = a[perField];
+            x[layout.upperMass()] = a[upperAt];
             x[layout.bond()] = a[weakAt + 1] > 0.5f * a[weakAt] ? 1.f : 0.f;
         }
     });
@@ -383,11 +387,20 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                             meanBlockVelocity(grid, grid.blocksOfParticleLeaf()[l][0], layout);
                     continue;
                 }
-                gatherPadded<Dim>(grid, l, velocityField, 3, 0, channels, local);
-                if (Flip)
-                    gatherPadded<Dim>(grid, l, auxField, auxStride, layout.lowerReference(),
-                                      channels, local + 3);
-                if (layout.twoFields) {
+                // With a slip surface, only the fields that the leaf's awake particles read.
+                bool readsLower = !layout.twoFields, readsUpper = false;
+                for (std::uint32_t i = ps.leafStart[l]; layout.twoFields && i < ps.leafStart[l + 1];
+                     ++i) {
+                    if (ps.asleep(i)) continue;
+                    (ps.plastic[i].flags & kFlagUpperField ? readsUpper : readsLower) = true;
+                }
+                if (readsLower) {
+                    gatherPadded<Dim>(grid, l, velocityField, 3, 0, channels, local);
+                    if (Flip)
+                        gatherPadded<Dim>(grid, l, auxField, auxStride, layout.lowerReference(),
+                                          channels, local + 3);
+                }
+                if (readsUpper) {
                     gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperVelocity(),
                                       channels, upperLocal);
                     if (Flip)
