@@ -4,7 +4,9 @@
 #include <firn/diagnostics.h>
 #include <firn/solver.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 #include <tuple>
 
@@ -14,11 +16,18 @@ using namespace firn;
 
 namespace {
 
-FrameDiagnostics crackFrame(double minX, double maxX) {
+constexpr double kNoLayer = std::numeric_limits<double>::quiet_NaN(); // no uncracked layer left
+
+/// A frame whose crack spans [minX, maxX] of a weak layer that has not cracked from intactMinX
+/// to intactMaxX (by default far beyond both ends: the crack can grow either way).
+FrameDiagnostics crackFrame(double minX, double maxX, double intactMinX = -1000.0,
+                            double intactMaxX = 1000.0) {
     FrameDiagnostics d;
     d.hasWeakLayer = true;
     d.crackMinX = minX;
     d.crackMaxX = maxX;
+    d.intactMinX = intactMinX;
+    d.intactMaxX = intactMaxX;
     return d;
 }
 
@@ -321,6 +330,43 @@ TEST_CASE("crack tracker: the mean speed ends where the crack stopped, not where
     CHECK(crack.tip() == Approx(20.5));
     // The travel is the crack's 9 m, not 11.5: 10 % passed at 0.378 s, 90 % at 0.522 s.
     CHECK(crack.meanSpeed() == Approx(0.8 * 9.0 / (0.522 - 0.378)).epsilon(1e-9)); // 50 m/s
+}
+
+TEST_CASE("crack tracker: failed layer carried past the layer's end at crack speed is not the "
+          "crack",
+          "[diagnostics]") {
+    // scenes/slope2d.toml's layer over x 0.5-20 m: the crack from the snowman (12-13 m) runs
+    // up-slope to the top at 100 m/s and down to the layer's end at 20 m at 70 m/s, over frames
+    // 0.02 s apart; the uncracked layer lies beyond both ends until they reach the layer's ends.
+    CrackTracker crack;
+    double t = 0.0;
+    crack.update(crackFrame(12.0, 13.0, 0.5, 20.0), t);
+    for (int k = 1; k <= 6; ++k) {
+        const double up = std::max(12.0 - 2.0 * k, 0.5), down = std::min(13.0 + 1.4 * k, 20.0);
+        // Uncracked: [0.5, up] and [down, 20], where they are left.
+        const double intactMin = up > 0.5 ? 0.5 : down < 20.0 ? down : kNoLayer;
+        const double intactMax = down < 20.0 ? 20.0 : up > 0.5 ? up : kNoLayer;
+        crack.update(crackFrame(up, down, intactMin, intactMax), t += 0.02);
+    }
+    REQUIRE(crack.direction() == -1);
+    const double grown = crack.distance();
+    CHECK(grown == Approx((20.0 - 0.5) - 1.0));
+    const double steady = crack.meanSpeed();
+    CHECK(steady == Approx(100.0).epsilon(0.02));
+    // The avalanche then carries the failed layer past the end: the extent's far end jumps
+    // 0.25 m in some frames (12.5 m/s) and rests in others, 7.5 m in all, more than the 6 m that
+    // the crack ran up-slope from where the down-slope end was then. Only uncracked layer up-slope
+    // of the crack (none) and down-slope (none) could be cracked.
+    double carried = 20.0;
+    for (int k = 1; k <= 60; ++k) {
+        carried += k % 2 ? 0.25 : 0.0;
+        crack.update(crackFrame(0.5, carried, kNoLayer, kNoLayer), t += 0.02);
+    }
+    CHECK(crack.direction() == -1);
+    CHECK(crack.tip() == Approx(0.5));
+    CHECK(crack.distance() == Approx(grown)); // each end as far as it grew
+    CHECK(crack.meanSpeed() == Approx(steady));
+    CHECK(crack.distanceBehind(19.0, t) == Approx(20.0 - 19.0)); // from the layer's end
 }
 
 TEST_CASE("crack tracker: a mean speed from a crack that crossed the column in two frames",

@@ -50,6 +50,7 @@ CrackTracker runningCrack() {
     CrackTracker crack;
     FrameDiagnostics d;
     d.hasWeakLayer = true;
+    d.intactMinX = 0.0, d.intactMaxX = 4.0; // the layer beyond both ends
     d.crackMinX = 1.4, d.crackMaxX = 1.5;
     crack.update(d, 0.0);
     d.crackMaxX = 3.5;
@@ -154,6 +155,7 @@ TEST_CASE("a fracture up-slope of the trigger lies behind the up-slope tip, whil
     CrackTracker crack;
     FrameDiagnostics d;
     d.hasWeakLayer = true;
+    d.intactMinX = 0.0, d.intactMaxX = 4.0; // the layer beyond both ends
     d.crackMinX = 1.5, d.crackMaxX = 1.6;
     crack.update(d, 0.0);
     d.crackMinX = 1.0, d.crackMaxX = 2.5;

@@ -20,8 +20,9 @@ namespace firn {
 /// Bump when the payload's layout changes; older files are then refused with a message.
 // 2: peak fields and the COM path; 3: crack ends; 4: the leaves' velocity at the start of quiet;
 // 5: the crack's ends timed to the step; 6: the slab's mass and momentum; 7: the settling
-// overload's box in scene coordinates (double) and its count per material; 8: slab fractures' start
-constexpr std::uint32_t kCheckpointFormat = 8;
+// overload's box in scene coordinates (double) and its count per material; 8: slab fractures'
+// start; 9: the crack tracker's uncracked extent and each end's reach
+constexpr std::uint32_t kCheckpointFormat = 9;
 
 /// "checkpoint.0042.firn".
 std::string checkpointFileName(int frame);

@@ -59,6 +59,10 @@ struct FrameDiagnostics {
     /// where softening has started (the paper's tip, eta > 0); this one is where it has finished:
     /// between the two ends lies the process zone.
     std::vector<std::int64_t> collapseCells;
+    /// Extent along x of the weak-layer particles that have not cracked (eta = 0), m; NaN while
+    /// none. The crack can only grow into it (CrackTracker).
+    double intactMinX = std::numeric_limits<double>::quiet_NaN();
+    double intactMaxX = std::numeric_limits<double>::quiet_NaN();
     double collapseMinX = std::numeric_limits<double>::quiet_NaN();
     double collapseMaxX = std::numeric_limits<double>::quiet_NaN();
     double failedFraction = 0; ///< failed mass / mass
@@ -90,8 +94,11 @@ public:
     /// crack first appeared, counting only advances at kMinCrackSpeed or faster between frames
     /// (slower growth is creep, or failed weak layer carried by snow that flows); without such
     /// advances, the end that has grown more (down-slope, +x, on ties). Its speed is its advance
-    /// between frames. An extent that does not overlap the previous one is a new crack: tracking
-    /// restarts there.
+    /// between frames. An end grows (its propagation, distance(), meanSpeed(), its steps) only
+    /// while weak layer that had not cracked lay beyond it in the frame before: past the layer's
+    /// end, or over its cracked part, the extent moves with failed layer that flowing snow
+    /// carries, at crack speed between some frames, and that is not the crack. An extent that
+    /// does not overlap the previous one is a new crack: tracking restarts there.
     void update(const FrameDiagnostics& d, double time);
     double tip() const { return mTip; }     ///< m, NaN before the crack appears
     double speed() const { return mSpeed; } ///< m/s since the previous frame, NaN if none
@@ -117,10 +124,11 @@ public:
     /// Direction of travel of the leading tip along x: +1 down-slope, -1 up-slope, 0 before the
     /// crack appears.
     int direction() const { return mDirection; }
-    /// Growth of the extent since its first appearance, m.
+    /// Growth of the extent since its first appearance, m: each end as far as it grew (update).
     double distance() const;
     /// Steady crack speed, m/s: the leading end's mean speed over the middle 80 % of its travel
-    /// (from where it started to the farthest it reached), 0.8 travel / (t90 - t10), with t10 and
+    /// (from where it started to the farthest an advance at crack speed into weak layer that
+    /// had not cracked took it), 0.8 travel / (t90 - t10), with t10 and
     /// t90 the times it first passed 10 % and 90 % of the travel, interpolated between frames.
     /// This leaves out the onset at the cut and the arrival at the end of a column (both
     /// transients) and needs no more than two frames during the propagation.
@@ -132,7 +140,11 @@ public:
 
 private:
     double mMinX0 = std::numeric_limits<double>::quiet_NaN(), mMaxX0 = mMinX0;
-    double mMinX = 0, mMaxX = 0, mTime = 0;
+    double mMinX = 0, mMaxX = 0, mTime = 0; // the ends as far as they grew (update)
+    /// The extent of the uncracked weak layer in the last frame, m (NaN: none).
+    double mIntactMinX = std::numeric_limits<double>::quiet_NaN(), mIntactMaxX = mIntactMinX;
+    /// The farthest x each end reached by an advance at crack speed, m (NaN: none yet).
+    double mUpReach = std::numeric_limits<double>::quiet_NaN(), mDownReach = mUpReach;
     double mTip = std::numeric_limits<double>::quiet_NaN(), mSpeed = mTip, mMaxSpeed = 0;
     int mDirection = 0;
     double mUpPropagated = 0, mDownPropagated = 0;   // m, advances at kMinCrackSpeed or faster
@@ -141,8 +153,9 @@ private:
     /// (time, min / max x) of the extent at each step it grew, from the cells' crack times.
     std::vector<std::pair<double, double>> mUpSteps, mDownSteps;
     /// Appends to mUpSteps / mDownSteps the growth since the last frame (all of it for a new
-    /// crack).
-    void recordSteps(const FrameDiagnostics& d, bool fresh);
+    /// crack; of the ends that can grow, upGrows and downGrows, otherwise).
+    void recordSteps(const FrameDiagnostics& d, bool fresh, bool upGrows = true,
+                     bool downGrows = true);
     /// One end's x at `time` (side -1: the up-slope end, +1: the down-slope end).
     double endAt(double time, int side) const;
 };

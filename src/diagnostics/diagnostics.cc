@@ -94,6 +94,8 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
         return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b);
     };
     into.frontX = fmaxNan(into.frontX, d.frontX);
+    into.intactMaxX = fmaxNan(into.intactMaxX, d.intactMaxX);
+    into.intactMinX = -fmaxNan(-into.intactMinX, -d.intactMinX);
     if (d.movedTopY > into.movedTopY || std::isnan(into.movedTopY))
         if (!std::isnan(d.movedTopY)) into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX;
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
@@ -164,7 +166,10 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
             d.hasWeakLayer = true;
             const auto cellX = std::int64_t(std::floor(x[0] / world.dx));
             if (ps.plastic[i].flags & kFlagCollapsed) d.collapseCells.push_back(cellX);
-            if (ps.plastic[i].eta > 0.f) {
+            if (!(ps.plastic[i].eta > 0.f)) {
+                if (!(x[0] >= d.intactMinX)) d.intactMinX = x[0];
+                if (!(x[0] <= d.intactMaxX)) d.intactMaxX = x[0];
+            } else {
                 const float time = ps.plastic[i].fractureTime;
                 cracked.push_back({cellX, time});
                 if (world.dim == 3)
