@@ -244,6 +244,9 @@ TEST_CASE("the crack and the collapse behind it are the largest runs of their we
     ParticleSet& ps = world->particles;
     REQUIRE(std::isnan(computeDiagnostics(*world).crackMinX)); // nothing has failed
     REQUIRE(std::isnan(computeDiagnostics(*world).collapseMinX));
+    // The uncracked layer: all of it (particles on the lattice at x 0.025 ... 4.975 m).
+    CHECK(computeDiagnostics(*world).intactMinX == Approx(0.025));
+    CHECK(computeDiagnostics(*world).intactMaxX == Approx(4.975));
     // A crack over x in [1, 2] m, a gap of 3 cells bridged inside it ([1.5, 1.8] intact), and
     // one stray particle at x > 4.5 (more than kCrackGapCells away). Its softening has finished
     // (p0 reached 0: the collapse flag) over [1.8, 2] only, and in the stray particle.
@@ -262,6 +265,12 @@ TEST_CASE("the crack and the collapse behind it are the largest runs of their we
     CHECK(d.crackMaxX == Approx(1.95));
     CHECK(d.collapseMinX == Approx(1.85)); // the process zone: 0.8 m up-slope of it
     CHECK(d.collapseMaxX == Approx(1.95));
+    CHECK(d.intactMinX == Approx(0.025)); // uncracked layer remains beyond both ends
+    CHECK(d.intactMaxX == Approx(4.975));
+    // Cracked up-slope of 1 m too: the uncracked layer starts in the bridged gap at 1.5 m.
+    for (std::size_t i = 0; i < ps.size(); ++i)
+        if (ps.x[i][0] < 1.f) ps.plastic[i].eta = 0.1f;
+    CHECK(computeDiagnostics(*world).intactMinX == Approx(1.525));
 }
 
 TEST_CASE("crack tracker restarts at a new, larger crack that does not overlap the old one",

@@ -94,8 +94,8 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
         return std::isnan(a) ? b : std::isnan(b) ? a : std::max(a, b);
     };
     into.frontX = fmaxNan(into.frontX, d.frontX);
-    into.intactMaxX = fmaxNan(into.intactMaxX, d.intactMaxX);
-    into.intactMinX = -fmaxNan(-into.intactMinX, -d.intactMinX);
+    into.intactMinX = std::fmin(into.intactMinX, d.intactMinX); // NaN (none) gives way
+    into.intactMaxX = std::fmax(into.intactMaxX, d.intactMaxX);
     if (d.movedTopY > into.movedTopY || std::isnan(into.movedTopY))
         if (!std::isnan(d.movedTopY)) into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX;
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
