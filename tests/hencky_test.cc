@@ -42,10 +42,11 @@ TEST_CASE("series Hencky strain matches U log(sigma) U^T near the identity", "[m
 
 TEST_CASE("plane-strain series Hencky strain is the 3D series of the plane-strain gradient",
           "[material]") {
-    // The 2D path runs the series on the 2 x 2 block; the 3D series of the same gradient with a
-    // zero third row and column differs from it only by sums with exact zeros, summed or fused
-    // in another order. So the two agree to a rounding or two of the largest strain component
-    // (2.5e-7 relative: two float ulps), and the 2D path ignores what the gradient holds out of
+    // The 2D path sums the series as a X + b I (Cayley-Hamilton in 2 x 2), the 3D one as
+    // a X^2 + b X + c I: two float evaluations of the same log, each within 6 float ulps of the
+    // largest strain component against a double-precision eigen-decomposition (measured on
+    // these gradients: 5.7 ulps in 2D, 5.3 in 3D). So the two agree to 12 ulps (7.2e-7
+    // relative; 6.9 ulps measured), and the 2D path ignores what the gradient holds out of
     // plane.
     std::mt19937 rng(11);
     int compared = 0;
@@ -64,7 +65,7 @@ TEST_CASE("plane-strain series Hencky strain is the 3D series of the plane-strai
             if (!ok2) continue;
             ++compared;
             INFO("scale " << scale);
-            REQUIRE((eps2 - eps3).cwiseAbs().maxCoeff() <= 2.5e-7f * eps3.cwiseAbs().maxCoeff());
+            REQUIRE((eps2 - eps3).cwiseAbs().maxCoeff() <= 7.2e-7f * eps3.cwiseAbs().maxCoeff());
             REQUIRE(eps2.row(2).isZero(0.f));
             REQUIRE(eps2.col(2).isZero(0.f));
         }
