@@ -45,93 +45,120 @@ template <int Dim> inline Stencil stencilOf(const Vec3f& x, float invDx, const L
     return s;
 }
 
-/// Adds one particle's contribution to NC channels of the padded block, whose nodes are Stride
-/// floats apart. The value at node (a, b, c) is value + affine (node - particle) = (value -
-/// affine fx) + a col0 + b col1 + c col2 (grid units), built up incrementally across the loops
-/// instead of a matrix-vector product per node.
-template <int Dim, int NC, bool Affine, int AffineAt, int Stride = NC>
+/// Floats per node of a padded P2G block with NC channels: NC rounded up to whole packets of 4,
+/// so that a particle adds all of a node's channels as SSE or AVX packets (the extra channels
+/// stay zero).
+template <int NC> constexpr int packedChannels() {
+    return (NC + 3) & ~3;
+}
+
+/// The node layout of a padded P2G block whose particles fill channels 0 .. UpperAt - 1 (one
+/// field, or the lower field of a slip surface) or UpperAt .. NC - 1 (the upper field): each
+/// field's channels start on a packet boundary, so a particle adds its own field as whole
+/// packets and nothing to the other's.
+template <int NC, int UpperAt> struct PaddedLayout {
+    static constexpr bool twoFields = UpperAt < NC;
+    static constexpr int lowerLanes = packedChannels<UpperAt>();
+    static constexpr int upperLanes = twoFields ? packedChannels<NC - UpperAt>() : 0;
+    static constexpr int upperAt = lowerLanes; ///< where the upper field's channels start
+    static constexpr int lanes = lowerLanes + upperLanes;
+};
+
+/// Adds one particle's contribution to Width channels of the padded block (value zero past the
+/// particle's own channels), whose nodes are Stride floats apart: one packet per node. The value
+/// at node (a, b, c) is value + affine (node - particle) = (value - affine fx) + a col0 + b col1
+/// + c col2 (grid units), built up incrementally across the loops instead of a matrix-vector
+/// product per node.
+template <int Dim, int Width, bool Affine, int AffineAt, int Stride>
 inline void scatterParticle(const Stencil& s, const float* value, const Mat3f& affine, float* buf) {
-    float base[NC];
-    for (int ch = 0; ch < NC; ++ch) base[ch] = value[ch];
+    using Packet = Eigen::Matrix<float, Width, 1>;
+    Packet base = Eigen::Map<const Packet>(value);
+    Packet col[3] = {Packet::Zero(), Packet::Zero(), Packet::Zero()};
     if (Affine) {
         const Vec3f shift = affine * Vec3f(s.fx[0], s.fx[1], Dim == 3 ? s.fx[2] : 0.f);
         for (int ch = 0; ch < 3; ++ch) base[AffineAt + ch] -= shift[ch];
+        for (int k = 0; k < 3; ++k) col[k].template segment<3>(AffineAt) = affine.col(k);
     }
     constexpr int nc = Dim == 3 ? 3 : 1;
     for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) {
             const float wab = s.w[0][a] * s.w[1][b];
-            float v[NC];
-            for (int ch = 0; ch < NC; ++ch) v[ch] = base[ch];
-            if (Affine)
-                for (int ch = 0; ch < 3; ++ch)
-                    v[AffineAt + ch] += float(a) * affine(ch, 0) + float(b) * affine(ch, 1);
+            Packet v = base;
+            if (Affine) v += float(a) * col[0] + float(b) * col[1];
             for (int c = 0; c < nc; ++c) {
                 const float w = Dim == 3 ? wab * s.w[2][c] : wab;
-                float* out =
-                    buf + Stride * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c);
-                for (int ch = 0; ch < NC; ++ch) out[ch] += w * v[ch];
-                if (Affine && Dim == 3)
-                    for (int ch = 0; ch < 3; ++ch) v[AffineAt + ch] += affine(ch, 2);
+                Eigen::Map<Packet> out(
+                    buf + Stride * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c));
+                out += w * v;
+                if (Affine && Dim == 3) v += col[2];
             }
         }
     }
 }
+
+/// G2P's padded block: per node the grid velocity in lanes 0-2 and, for FLIP, its increment v -
+/// v_ref in lanes 4-6 (lanes 3 and 7 zero), so that a node is one packet of 4 or 8 floats and
+/// every sum below runs on whole packets (SSE or AVX) instead of three scalars.
+template <bool Flip> constexpr int g2pLanes() {
+    return Flip ? 8 : 4;
+}
+template <bool Flip> using G2pPacket = Eigen::Matrix<float, g2pLanes<Flip>(), 1>;
 
 /// Interpolates a particle's velocity (and FLIP increment) from the padded block, with the
 /// APIC moment B = sum w v_i (x_i - x_p)^T in grid units. Moments are accumulated per axis
 /// loop: column j of B is sum w v_i * index_j - fx_j * sum w v_i.
 template <int Dim, bool Flip>
-inline void gatherParticle(const Stencil& s, const float* local, int channels, Vec3f& vPic,
-                           Mat3f& B, Vec3f& dvFlip) {
+inline void gatherParticle(const Stencil& s, const float* local, Vec3f& vPic, Mat3f& B,
+                           Vec3f& dvFlip) {
+    using Packet = G2pPacket<Flip>;
+    constexpr int lanes = g2pLanes<Flip>();
     constexpr int nc = Dim == 3 ? 3 : 1;
-    Vec3f m0 = Vec3f::Zero(), m1 = Vec3f::Zero(), m2 = Vec3f::Zero();
-    vPic.setZero();
-    dvFlip.setZero();
+    Packet v = Packet::Zero(), m0 = Packet::Zero(), m1 = Packet::Zero(), m2 = Packet::Zero();
     for (int a = 0; a < 3; ++a) {
-        Vec3f sa = Vec3f::Zero(), sab = Vec3f::Zero(), sac = Vec3f::Zero(), dva = Vec3f::Zero();
+        Packet sa = Packet::Zero(), sab = Packet::Zero(), sac = Packet::Zero();
         for (int b = 0; b < 3; ++b) {
-            Vec3f sb = Vec3f::Zero(), sbc = Vec3f::Zero(), dvb = Vec3f::Zero();
+            Packet sb = Packet::Zero(), sbc = Packet::Zero();
             for (int c = 0; c < nc; ++c) {
-                const float* g = local + channels * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b,
-                                                                     s.base[2] + c);
+                const Packet g = Eigen::Map<const Packet>(
+                    local + lanes * paddedIndex<Dim>(s.base[0] + a, s.base[1] + b, s.base[2] + c));
                 const float wc = Dim == 3 ? s.w[2][c] : 1.f;
-                const Vec3f wv = wc * Vec3f(g[0], g[1], g[2]);
+                const Packet wv = wc * g;
                 sb += wv;
                 if (Dim == 3) sbc += float(c) * wv;
-                if (Flip) dvb += wc * Vec3f(g[0] - g[3], g[1] - g[4], g[2] - g[5]);
             }
             const float wb = s.w[1][b];
             sa += wb * sb;
             sab += (wb * float(b)) * sb;
             sac += wb * sbc;
-            if (Flip) dva += wb * dvb;
         }
         const float wa = s.w[0][a];
-        vPic += wa * sa;
+        v += wa * sa;
         m0 += (wa * float(a)) * sa;
         m1 += wa * sab;
         m2 += wa * sac;
-        if (Flip) dvFlip += wa * dva;
     }
-    B.col(0) = m0 - s.fx[0] * vPic;
-    B.col(1) = m1 - s.fx[1] * vPic;
-    B.col(2) = Dim == 3 ? Vec3f(m2 - s.fx[2] * vPic) : Vec3f::Zero();
+    vPic = v.template head<3>();
+    if (Flip) dvFlip = v.template segment<3>(4);
+    B.col(0) = m0.template head<3>() - s.fx[0] * vPic;
+    B.col(1) = m1.template head<3>() - s.fx[1] * vPic;
+    B.col(2) = Dim == 3 ? Vec3f(m2.template head<3>() - s.fx[2] * vPic) : Vec3f::Zero();
 }
 
-/// Scatter phase into padded blocks of NC channels per node. ParticleFn(i, float* value, Mat3f&
-/// affine) fills the constant part of the particle's channels and, if Affine, a matrix (per
-/// metre) whose product with the node offset is added to its channels AffineAt .. AffineAt + 2;
-/// it returns true for a particle of the upper field of a slip surface. A particle of the one
-/// field (or the lower one) fills channels 0 .. UpperAt - 1, one of the upper field channels
-/// UpperAt .. NC - 1 (value[0 ..], its affine part at AffineAt of them): each adds nothing to the
-/// other field's channels, where its zeros would leave every sum bitwise as it is. With
+/// Scatter phase into padded blocks laid out as PaddedLayout<NC, UpperAt>. ParticleFn(i, float*
+/// value, Mat3f& affine), value zeroed, fills the constant part of the particle's channels and, if
+/// Affine, a matrix (per metre) whose product with the node offset is added to its channels
+/// AffineAt .. AffineAt + 2; it returns true for a particle of the upper field of a slip surface. A
+/// particle of the one field (or the lower one) fills channels 0 .. UpperAt - 1 of value, one of
+/// the upper field its NC - UpperAt channels from value[0] (its affine part at AffineAt of them),
+/// which land at the layout's upperAt: each adds nothing to the other field's channels. With
 /// skipDeepSleepers, leaves in deep sleep (ParticleSet::SleepLevel) scatter nothing: no awake
 /// particle reads those nodes.
 template <int Dim, int NC, bool Affine, int AffineAt, int UpperAt = NC, typename ParticleFn>
 void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipDeepSleepers,
                    ParticleFn&& fn) {
-    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
+    using Layout = PaddedLayout<NC, UpperAt>;
+    constexpr int lanes = Layout::lanes;
+    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * lanes;
     padded.assign(ps.leafCount() * stride, 0.f);
     const float invDx = 1.f / ps.dx;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
@@ -140,17 +167,18 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipD
             float* buf = padded.data() + l * stride;
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
-                float value[NC];
+                float value[lanes] = {};
                 Mat3f affine = Mat3f::Zero();
                 const bool upper = fn(i, value, affine);
-                if constexpr (UpperAt < NC) {
+                if constexpr (Layout::twoFields) {
                     if (upper) {
-                        scatterParticle<Dim, NC - UpperAt, Affine, AffineAt, NC>(
-                            s, value, affine * ps.dx, buf + UpperAt);
+                        scatterParticle<Dim, Layout::upperLanes, Affine, AffineAt, lanes>(
+                            s, value, affine * ps.dx, buf + Layout::upperAt);
                         continue;
                     }
                 }
-                scatterParticle<Dim, UpperAt, Affine, AffineAt, NC>(s, value, affine * ps.dx, buf);
+                scatterParticle<Dim, Layout::lowerLanes, Affine, AffineAt, lanes>(
+                    s, value, affine * ps.dx, buf);
             }
         }
     });
@@ -165,13 +193,14 @@ inline int overlapShift(int o, int axisBit) {
 }
 
 /// Merge phase: every grid block sums its overlapping padded blocks in the fixed order
-/// o = 0 .. 2^Dim - 1 into acc[512 * NC], then hands it to sink(b, acc).
+/// o = 0 .. 2^Dim - 1 into acc[512 * packedChannels<NC>()], then hands it to sink(b, acc).
 template <int Dim, int NC, typename SinkFn>
 void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& sink) {
-    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * NC;
+    constexpr int PC = packedChannels<NC>();
+    const std::size_t stride = std::size_t(paddedNodes<Dim>()) * PC;
     const auto& sources = grid.particleLeavesOfBlock();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
-        std::vector<float> acc(std::size_t(kLeafNodes) * NC);
+        std::vector<float> acc(std::size_t(kLeafNodes) * PC);
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
             std::fill(acc.begin(), acc.end(), 0.f);
             for (int o = 0; o < (1 << Dim); ++o) {
@@ -182,11 +211,11 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
                 for (int i = 0; i < overlapEnd(o, 0); ++i)
                     for (int j = 0; j < overlapEnd(o, 1); ++j)
                         for (int k = 0; k < kEnd; ++k) {
-                            const float* s = src + NC * paddedIndex<Dim>(i + overlapShift(o, 0),
+                            const float* s = src + PC * paddedIndex<Dim>(i + overlapShift(o, 0),
                                                                          j + overlapShift(o, 1),
                                                                          k + overlapShift(o, 2));
-                            float* d = acc.data() + NC * leafOffset(i, j, k);
-                            for (int ch = 0; ch < NC; ++ch) d[ch] += s[ch];
+                            float* d = acc.data() + PC * leafOffset(i, j, k);
+                            for (int ch = 0; ch < PC; ++ch) d[ch] += s[ch];
                         }
             }
             sink(b, acc.data());
@@ -212,7 +241,17 @@ void gatherPadded(const Grid& grid, std::size_t l, FieldFn&& field, int sourceCh
                                                                  j + overlapShift(o, 1),
                                                                  k + overlapShift(o, 2));
                     for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
+                    if (channels > 3) d[3] = 0.f; // G2P's packets: a defined lane past the three
                 }
+    }
+}
+
+/// FLIP's padded block: lanes 4-6 of every node from the reference velocity to the increment
+/// v - v_ref that G2P adds to the particle's velocity.
+template <int Dim> void toIncrement(float* local) {
+    for (int n = 0; n < paddedNodes<Dim>(); ++n) {
+        float* node = local + 8 * n;
+        for (int c = 0; c < 3; ++c) node[4 + c] = node[c] - node[4 + c];
     }
 }
 
@@ -247,7 +286,6 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
         ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
             const std::uint32_t flags = ps.plastic[i].flags;
             const bool upper = flags & kFlagUpperField;
-            for (int ch = 0; ch < upperAt; ++ch) value[ch] = 0.f;
             const float m = ps.mass[i];
             value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
             value[3] = m * ps.v[i][2];
@@ -259,23 +297,25 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
             if (!Flip && apic && !ps.asleep(i)) affine += m * ps.C[i];
             return upper;
         });
+    using Padded = PaddedLayout<NC, upperAt>;
     const AuxLayout layout{Flip, true};
     const int stride = layout.channels();
-    mergeBlocks<Dim, NC>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
+    mergeBlocks<Dim, Padded::lanes>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
         float* mass = grid.mass(b);
         float* mom = grid.velocity(b);
         float* aux = grid.aux(b);
         for (int n = 0; n < kLeafNodes; ++n) {
-            const float* a = acc + NC * n;
+            const float* a = acc + Padded::lanes * n;
+            const float* up = a + Padded::upperAt;
             float* x = aux + stride * n;
             mass[n] = a[0];
             for (int c = 0; c < 3; ++c) {
                 mom[3 * n + c] = a[1 + c];
                 if (Flip) x[layout.lowerReference() + c] = a[4 + c];
-                x[layout.upperVelocity() + c] = a[upperAt + 1 + c];
-                if (Flip) x[layout.upperReference() + c] = a[upperAt + 4 + c];
+                x[layout.upperVelocity() + c] = up[1 + c];
+                if (Flip) x[layout.upperReference() + c] = up[4 + c];
             }
-            x[layout.upperMass()] = a[upperAt];
+            x[layout.upperMass()] = up[0];
             x[layout.bond()] = a[weakAt + 1] > 0.5f * a[weakAt] ? 1.f : 0.f;
         }
     });
@@ -317,7 +357,7 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         ps, scratch.padded, true, [&](std::uint32_t i, float* value, Mat3f& affine) {
             const float m = ps.mass[i];
             value[0] = m, value[1] = m * ps.v[i][0], value[2] = m * ps.v[i][1];
-            value[3] = m * ps.v[i][2], value[4] = value[5] = value[6] = 0.f;
+            value[3] = m * ps.v[i][2];
             affine = stressImpulse(ps, i, params.dt, dInv);
             return false;
         });
@@ -325,11 +365,12 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         float* mass = grid.mass(b);
         float* mom = grid.velocity(b);
         float* impulse = grid.aux(b);
+        constexpr int pc = packedChannels<7>();
         for (int n = 0; n < kLeafNodes; ++n) {
-            mass[n] = acc[7 * n];
+            mass[n] = acc[pc * n];
             for (int c = 0; c < 3; ++c) {
-                mom[3 * n + c] = acc[7 * n + 1 + c];
-                impulse[3 * n + c] = acc[7 * n + 4 + c];
+                mom[3 * n + c] = acc[pc * n + 1 + c];
+                impulse[3 * n + c] = acc[pc * n + 4 + c];
             }
         }
     });
@@ -374,9 +415,9 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     return tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), 0.f,
         [&](const auto& r, float maxSpeed) {
-            constexpr int channels = Flip ? 6 : 3;
-            float local[paddedNodes<Dim>() * channels];
-            float upperLocal[paddedNodes<Dim>() * channels]; // the upper field's, if any
+            constexpr int channels = g2pLanes<Flip>();
+            alignas(32) float local[paddedNodes<Dim>() * channels];
+            alignas(32) float upperLocal[paddedNodes<Dim>() * channels]; // the upper field's
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
                 const auto sleep = ps.leafSleepLevel(l);
                 if (sleep != ParticleSet::kAwake) { // at rest, state frozen
@@ -396,16 +437,20 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                 }
                 if (readsLower) {
                     gatherPadded<Dim>(grid, l, velocityField, 3, 0, channels, local);
-                    if (Flip)
+                    if (Flip) {
                         gatherPadded<Dim>(grid, l, auxField, auxStride, layout.lowerReference(),
-                                          channels, local + 3);
+                                          channels, local + 4);
+                        toIncrement<Dim>(local);
+                    }
                 }
                 if (readsUpper) {
                     gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperVelocity(),
                                       channels, upperLocal);
-                    if (Flip)
+                    if (Flip) {
                         gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperReference(),
-                                          channels, upperLocal + 3);
+                                          channels, upperLocal + 4);
+                        toIncrement<Dim>(upperLocal);
+                    }
                 }
                 for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                     if (ps.asleep(i)) continue;
@@ -413,8 +458,7 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                     Vec3f vPic, dvFlip;
                     Mat3f B;
                     const bool upper = layout.twoFields && (ps.plastic[i].flags & kFlagUpperField);
-                    gatherParticle<Dim, Flip>(s, upper ? upperLocal : local, channels, vPic, B,
-                                              dvFlip);
+                    gatherParticle<Dim, Flip>(s, upper ? upperLocal : local, vPic, B, dvFlip);
                     const Mat3f C = cScale * B;
                     ps.C[i] = C;
                     // XPIC: the reference is v^L - v* (xpicReference), the increment its update.
@@ -539,14 +583,16 @@ VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& 
     mergeBlocks<Dim, 6>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
         const LeafKey& k = grid.blockKey(b);
         vf.origin[b] = {k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim};
+        constexpr int pc = packedChannels<6>();
         for (int n = 0; n < kLeafNodes; ++n) {
-            const float m = acc[6 * n];
+            const float* a = acc + pc * n;
+            const float m = a[0];
             if (m <= 0.f) continue;
             const std::size_t at = b * kLeafNodes + n;
             vf.density[at] = m / cellVolume;
-            vf.velocity[at] = {acc[6 * n + 1] / m, acc[6 * n + 2] / m, acc[6 * n + 3] / m};
-            vf.failed[at] = std::min(1.f, acc[6 * n + 4] / m);
-            vf.eta[at] = acc[6 * n + 5] / m;
+            vf.velocity[at] = {a[1] / m, a[2] / m, a[3] / m};
+            vf.failed[at] = std::min(1.f, a[4] / m);
+            vf.eta[at] = a[5] / m;
         }
     });
     return vf;
