@@ -131,27 +131,38 @@ void ParticleSet::append(ParticleSet&& other) {
 
 namespace {
 
-/// Gathers a[k] = a[order[k]] in parallel through `scratch`, Stride bytes per element, in
-/// slices of at most Stride bytes when the element is larger. No scratch is allocated: the
-/// caller lends the stress array, which is recomputed after bucketing. The slice sizes are
-/// compile-time constants, so each copy is a few moves, not a call to memcpy: bucketing runs
-/// every step and copies every particle's state twice.
+/// Gathers a[k] = a[order[k]] for k in `range` (order is the identity outside it) in parallel
+/// through `scratch`, Stride bytes per element, in slices of at most Stride bytes when the
+/// element is larger. No scratch is allocated: the caller lends the stress array, which is
+/// recomputed after bucketing. The slice sizes are compile-time constants, so each copy is a few
+/// moves, not a call to memcpy: bucketing runs every step and copies every particle's state
+/// twice.
 template <std::size_t Stride, std::size_t Offset = 0, typename T>
 void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
-                   unsigned char* scratch) {
+                   const tbb::blocked_range<std::size_t>& range, unsigned char* scratch) {
     constexpr std::size_t len = std::min(Stride, sizeof(T) - Offset);
-    const std::size_t n = a.size();
     unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+    const tbb::blocked_range<std::size_t> chunks(range.begin(), range.end(), 4096);
+    tbb::parallel_for(chunks, [&](const auto& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k)
             std::memcpy(scratch + k * len, base + order[k] * sizeof(T) + Offset, len);
     });
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+    tbb::parallel_for(chunks, [&](const auto& r) {
         for (std::size_t k = r.begin(); k != r.end(); ++k)
             std::memcpy(base + k * sizeof(T) + Offset, scratch + k * len, len);
     });
     if constexpr (Offset + Stride < sizeof(T))
-        gatherInPlace<Stride, Offset + Stride>(a, order, scratch);
+        gatherInPlace<Stride, Offset + Stride>(a, order, range, scratch);
+}
+
+/// The part of the arrays that a gather in `order` changes: from its first to its last k with
+/// order[k] != k. A few particles crossing into a neighbouring leaf move only the particles
+/// between the two leaves; a body at rest, or settling, moves next to none.
+tbb::blocked_range<std::size_t> movedRange(const std::vector<std::uint32_t>& order) {
+    std::size_t first = 0, last = order.size();
+    while (first < last && order[first] == first) ++first;
+    while (last > first && order[last - 1] == last - 1) --last;
+    return tbb::blocked_range<std::size_t>(first, last);
 }
 
 // Initial bucketing of unsorted particles: a stable sort by leaf key.
@@ -287,14 +298,15 @@ void ParticleSet::bucketByLeaf() {
     // The stress array is the scratch: it is recomputed from H after every bucketing.
     unsigned char* scratch = reinterpret_cast<unsigned char*>(tau.data());
     constexpr std::size_t stride = sizeof(Sym3f);
-    gatherInPlace<stride>(x, mOrder, scratch);
-    gatherInPlace<stride>(v, mOrder, scratch);
-    gatherInPlace<stride>(C, mOrder, scratch);
-    gatherInPlace<stride>(H, mOrder, scratch);
-    gatherInPlace<stride>(mass, mOrder, scratch);
-    gatherInPlace<stride>(volume0, mOrder, scratch);
-    gatherInPlace<stride>(material, mOrder, scratch);
-    gatherInPlace<stride>(plastic, mOrder, scratch);
+    const tbb::blocked_range<std::size_t> range = movedRange(mOrder);
+    gatherInPlace<stride>(x, mOrder, range, scratch);
+    gatherInPlace<stride>(v, mOrder, range, scratch);
+    gatherInPlace<stride>(C, mOrder, range, scratch);
+    gatherInPlace<stride>(H, mOrder, range, scratch);
+    gatherInPlace<stride>(mass, mOrder, range, scratch);
+    gatherInPlace<stride>(volume0, mOrder, range, scratch);
+    gatherInPlace<stride>(material, mOrder, range, scratch);
+    gatherInPlace<stride>(plastic, mOrder, range, scratch);
 }
 
 } // namespace firn
