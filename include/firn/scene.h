@@ -47,6 +47,9 @@ struct SimulationDesc {
     bool settle = true;
     double settleMaxTime = 2.0;    ///< s of simulated settling at most
     double settleTolerance = 1e-6; ///< settled when a kinetic-energy peak < this x elastic energy
+    /// CFL number while settling; 0: derived (settlingCfl), the largest the stability map
+    /// measured stable for APIC at the scene's particle density.
+    double settleCfl = 0.0;
     /// The simulated region, m: snow that leaves it (off the edge of a DEM, falling past the
     /// terrain) is removed at the end of the frame and counted as outflow. Unbounded where a
     /// component is infinite (the default: nothing is removed).

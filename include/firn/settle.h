@@ -40,12 +40,20 @@ struct SettleReport {
 struct SettleParams {
     double maxTime = 2.0;    ///< s
     double tolerance = 1e-6; ///< kinetic-energy peak / elastic energy that counts as at rest
+    double cfl = 0.4;        ///< CFL number of the settling steps (settlingCfl)
     /// Polled every step: true ends settling early (a signal asked the run to stop).
     std::function<bool()> interrupted;
     /// The materials' names, by index, for the overload message ("519 of weak"); a material
     /// without one is named by its number in the scene ("material 2").
     std::vector<std::string> materialNames;
 };
+
+/// The CFL number settling steps at: the scene's simulation.settle_cfl when given (> 0), else
+/// derived. Settling is elastic APIC, which the stability study (bench/README.md,
+/// bench/results/stability/) found stable up to CFL 1.0 with two or more particles per cell along
+/// each axis and up to 0.7 with one; the static equilibrium it converges to does not depend on
+/// the step. The derived number is never below the scene's own grid.cfl.
+double settlingCfl(double givenSettleCfl, double sceneCfl, int particlesPerCell, int dim);
 
 /// How a material is named in settling's report and summary: its scene name, or "material N"
 /// (N from 1, in scene order) when it has none.

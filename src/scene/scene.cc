@@ -180,6 +180,7 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     }
     r.real("settle_max_time", sim.settleMaxTime, Range::positive());
     r.real("settle_tolerance", sim.settleTolerance, Range::positive());
+    r.real("settle_cfl", sim.settleCfl, Range::openClosed(0.0, 10.0));
     const bool minGiven = r.vector("domain_min", sim.domainMin);
     const bool maxGiven = r.vector("domain_max", sim.domainMax);
     if (minGiven != maxGiven)

@@ -34,22 +34,25 @@ void stopAll(ParticleSet& ps) {
 /// steps, against 0.52 s, 2 236 steps with APIC; 4 973 and 4 970 particles overloaded), and
 /// PIC's damping turns the slowest mode into a creep that each reset shortens by only ~45 %
 /// (a 1 m slice of it: 20 resets over 1.0 s against APIC's 9 over 0.29 s). Restored on
-/// destruction, so that an exception leaves the world as the scene describes it.
+/// destruction, so that an exception leaves the world as the scene describes it. The step's CFL
+/// number is settling's own (settlingCfl).
 class SettlingConditions {
 public:
-    explicit SettlingConditions(World& w)
+    SettlingConditions(World& w, double cfl)
         : mWorld(w)
         , mMaterials(w.materials)
         , mColliders(w.colliders)
         , mSleep(w.sleep)
         , mGravityRamp(w.gravityRamp)
-        , mTransfer(w.transfer) {
+        , mTransfer(w.transfer)
+        , mCfl(w.cfl) {
         for (Material& m : w.materials) m.model = MaterialModel::Elastic;
         for (Collider& c : w.colliders)
             if (c.carriesWeight(w.gravity)) c = c.heldAtRest();
         w.sleep = false;
         w.gravityRamp = 0.f;
         w.transfer = Transfer::Apic;
+        w.cfl = float(cfl);
     }
     ~SettlingConditions() {
         mWorld.materials = mMaterials;
@@ -57,6 +60,7 @@ public:
         mWorld.sleep = mSleep;
         mWorld.gravityRamp = mGravityRamp;
         mWorld.transfer = mTransfer;
+        mWorld.cfl = mCfl;
     }
     SettlingConditions(const SettlingConditions&) = delete;
     SettlingConditions& operator=(const SettlingConditions&) = delete;
@@ -68,7 +72,14 @@ private:
     bool mSleep;
     float mGravityRamp;
     Transfer mTransfer;
+    float mCfl;
 };
+
+std::string formatCfl(double cfl) {
+    std::ostringstream out;
+    out << cfl;
+    return out.str();
+}
 
 std::string formatBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int dim) {
     std::ostringstream out;
@@ -114,6 +125,13 @@ void reportOverload(World& w, const std::vector<std::string>& names, SettleRepor
 
 } // namespace
 
+double settlingCfl(double givenSettleCfl, double sceneCfl, int particlesPerCell, int dim) {
+    if (givenSettleCfl > 0.0) return givenSettleCfl;
+    const double perAxis = std::pow(double(particlesPerCell), 1.0 / double(dim));
+    const double measuredStable = perAxis >= 2.0 - 1e-9 ? 1.0 : 0.7;
+    return std::max(sceneCfl, measuredStable);
+}
+
 std::string materialLabel(const std::vector<std::string>& names, std::size_t index) {
     if (index < names.size() && !names[index].empty()) return names[index];
     return "material " + std::to_string(index + 1);
@@ -128,7 +146,7 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
         return report;
     }
     {
-        SettlingConditions conditions(w);
+        SettlingConditions conditions(w, params.cfl);
         applyPlasticity(w, w.time); // elastic stress of the seeded state
         double previous = 0.0;
         while (w.time < params.maxTime) {
@@ -139,7 +157,9 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
             step(w, stableTimeStep(w));
             if (!std::isfinite(w.maxSpeed))
                 throw SimulationError("settling went unstable at t = " + std::to_string(w.time) +
-                                      " s of settling (" + std::to_string(w.steps) + " steps)");
+                                      " s of settling (" + std::to_string(w.steps) +
+                                      " steps at CFL " + formatCfl(params.cfl) +
+                                      "; a smaller simulation.settle_cfl steps more gently)");
             const double kinetic = kineticEnergy(w.particles);
             if (kinetic == 0.0) { // nothing moves at all: no load, or exactly in equilibrium
                 report.converged = true;

@@ -536,8 +536,10 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
         // Bodies seeded moving are not at rest: they wait outside while the rest settles.
         ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
         w.particles.bucketByLeaf();
+        const double cfl = settlingCfl(scene.simulation.settleCfl, scene.grid.cfl,
+                                       scene.grid.particlesPerCell, w.dim);
         SettleParams params{
-            scene.simulation.settleMaxTime, scene.simulation.settleTolerance, interrupted, {}};
+            scene.simulation.settleMaxTime, scene.simulation.settleTolerance, cfl, interrupted, {}};
         for (const MaterialDesc& m : scene.materials) params.materialNames.push_back(m.name);
         w.settle = settleUnderGravity(w, params);
         w.particles.append(std::move(moving));
