@@ -6,6 +6,7 @@
 //                    [--transfer apic|pic|flip|xpic] [--xpic-order M]
 #include "compare_openvdb.h"
 
+#include <firn/resources.h>
 #include <firn/scene.h>
 #include <firn/solver.h>
 
@@ -13,7 +14,6 @@
 #include <tbb/info.h>
 
 #include <sys/resource.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
@@ -115,17 +115,6 @@ void printShares(const Measurement& m) {
                 "%%, re-bucketing %.1f %%, sleep pass %.1f %%\n",
                 100 * t.p2g / total, 100 * t.gridUpdate / total, 100 * t.g2p / total,
                 100 * t.plasticity / total, 100 * t.sort / total, 100 * t.sleep / total);
-}
-
-/// Resident set size now, from /proc/self/statm.
-double currentRssBytes() {
-    std::FILE* f = std::fopen("/proc/self/statm", "r");
-    long pages = 0, resident = 0;
-    if (f) {
-        if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
-        std::fclose(f);
-    }
-    return double(resident) * double(sysconf(_SC_PAGESIZE));
 }
 
 Options parseOptions(int argc, char** argv) {

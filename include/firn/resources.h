@@ -41,6 +41,9 @@ MemoryEstimate estimateMemory(const SceneDesc& scene, double maxMemoryBytes = 0)
 /// is available.
 void checkMemory(const SceneDesc& scene, const MemoryEstimate& estimate);
 
+/// The process's resident set now, bytes (/proc/self/statm; 0 where it cannot be read).
+double currentRssBytes();
+
 /// "1.5 GB" style.
 std::string formatBytes(double bytes);
 

@@ -183,6 +183,9 @@ struct RunState {
     PeakFields peaks;       ///< hazard maps on the DEM's grid (empty without a heightfield)
     double peakSeconds = 0; ///< wall time spent sampling them, this process
     Clock::time_point start = Clock::now();
+    /// Resident memory before the world was built (libraries, the scene): bytes_per_particle is
+    /// charged only what the run adds to it (outputs.md).
+    double baselineRss = 0;
     long long stepsAtStart = 0;   ///< a resumed run's step count at its checkpoint
     int checkpointsWritten = 0;   ///< by this process
     double checkpointSeconds = 0; ///< wall time spent writing them
@@ -382,7 +385,9 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("particle_steps_per_second",
           wall > 0 ? double(w.particles.size()) * double(w.steps - s.stepsAtStart) / wall : 0.0);
     j.set("peak_rss_bytes", static_cast<long long>(rss));
-    j.set("bytes_per_particle", w.particles.size() ? double(rss) / w.particles.size() : 0.0);
+    j.set("baseline_rss_bytes", static_cast<long long>(s.baselineRss));
+    const double added = std::max(0.0, double(rss) - s.baselineRss);
+    j.set("bytes_per_particle", w.particles.size() ? added / double(w.particles.size()) : 0.0);
     j.set("mass_initial", s.first.mass);
     j.set("mass_final", s.last.mass);
     j.set("mass_outflow", w.outflowMass); // mass_initial = mass_final + mass_outflow
@@ -423,6 +428,8 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
         j.setBool("settle_converged", settle.converged);
         j.set("settle_time", settle.time);
         j.set("settle_steps", settle.steps);
+        j.set("settle_cfl", settlingCfl(s.scene.simulation.settleCfl, s.scene.grid.cfl,
+                                        s.scene.grid.particlesPerCell, w.dim));
         j.set("settle_wall_seconds", settle.wallSeconds);
         j.set("settle_overloaded_particles", static_cast<long long>(settle.overloaded));
         if (settle.overloaded > 0) writeSettleOverload(j, settle, w, s.scene.materials);
@@ -488,6 +495,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
     result.outDir = options.outDir.empty() ? sceneIn.output.directory : options.outDir;
     const std::string checkpointDir = result.outDir + "/checkpoints";
     SignalGuard signals; // before setup, so that a signal at any time ends with a summary
+    const double baselineRss = currentRssBytes();
 
     std::unique_ptr<World> world;
     SceneDesc scene = sceneIn;
@@ -524,6 +532,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         options.resume ? std::make_unique<RunState>(scene, *world, result.outDir, resumed.frame)
                        : std::make_unique<RunState>(scene, *world, result.outDir);
     RunState& s = *state;
+    s.baselineRss = baselineRss;
     s.peaks = makePeakFields(scene, *world);
     if (!options.resume) s.peaks.accumulate(world->particles); // the release at t = 0
     const int frames =

@@ -148,6 +148,7 @@ bool isInformational(const std::string& key) {
                                                "particle_steps_per_second",
                                                "peak_rss_bytes",
                                                "bytes_per_particle",
+                                               "baseline_rss_bytes",
                                                "settle_wall_seconds",
                                                "settle_overloaded_by_material",
                                                "checkpoints_written",

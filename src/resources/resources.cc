@@ -60,6 +60,13 @@ double virtualSize() {
 
 } // namespace
 
+double currentRssBytes() {
+    std::ifstream statm("/proc/self/statm");
+    long pages = 0, resident = 0;
+    if (!(statm >> pages >> resident)) return 0.0;
+    return double(resident) * double(sysconf(_SC_PAGESIZE));
+}
+
 std::string formatBytes(double bytes) {
     std::ostringstream out;
     out.precision(bytes >= 1e10 ? 0 : 1);
