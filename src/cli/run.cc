@@ -428,8 +428,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
         j.setBool("settle_converged", settle.converged);
         j.set("settle_time", settle.time);
         j.set("settle_steps", settle.steps);
-        j.set("settle_cfl", settlingCfl(s.scene.simulation.settleCfl, s.scene.grid.cfl,
-                                        s.scene.grid.particlesPerCell, w.dim));
+        j.set("settle_cfl", settlingCfl(s.scene.simulation.settleCfl, s.scene.grid.cfl));
         j.set("settle_wall_seconds", settle.wallSeconds);
         j.set("settle_overloaded_particles", static_cast<long long>(settle.overloaded));
         if (settle.overloaded > 0) writeSettleOverload(j, settle, w, s.scene.materials);

@@ -125,11 +125,9 @@ void reportOverload(World& w, const std::vector<std::string>& names, SettleRepor
 
 } // namespace
 
-double settlingCfl(double givenSettleCfl, double sceneCfl, int particlesPerCell, int dim) {
+double settlingCfl(double givenSettleCfl, double sceneCfl) {
     if (givenSettleCfl > 0.0) return givenSettleCfl;
-    const double perAxis = std::pow(double(particlesPerCell), 1.0 / double(dim));
-    const double measuredStable = perAxis >= 2.0 - 1e-9 ? 1.0 : 0.7;
-    return std::max(sceneCfl, measuredStable);
+    return std::max(sceneCfl, kSettlingCfl);
 }
 
 std::string materialLabel(const std::vector<std::string>& names, std::size_t index) {

@@ -536,8 +536,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
         // Bodies seeded moving are not at rest: they wait outside while the rest settles.
         ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
         w.particles.bucketByLeaf();
-        const double cfl = settlingCfl(scene.simulation.settleCfl, scene.grid.cfl,
-                                       scene.grid.particlesPerCell, w.dim);
+        const double cfl = settlingCfl(scene.simulation.settleCfl, scene.grid.cfl);
         SettleParams params{
             scene.simulation.settleMaxTime, scene.simulation.settleTolerance, cfl, interrupted, {}};
         for (const MaterialDesc& m : scene.materials) params.materialNames.push_back(m.name);
