@@ -20,7 +20,7 @@ TEST_CASE("series Hencky strain matches U log(sigma) U^T near the identity", "[m
                     for (int b = 0; b < dim; ++b) H(a, b) = n01(rng);
                 const Eigen::Matrix3f F = Eigen::Matrix3f::Identity() + H;
                 Eigen::Matrix3f eps;
-                REQUIRE(henckyStrainSeries(H, dim, eps));
+                REQUIRE(henckyStrainSeries(&H, 1, dim, &eps) == 1u);
                 const LeftStretch ls = leftStretch(F, dim);
                 Eigen::Vector3f logSigma = Eigen::Vector3f::Zero();
                 for (int a = 0; a < dim; ++a) logSigma[a] = std::log(ls.sigma[a]);
@@ -35,7 +35,7 @@ TEST_CASE("series Hencky strain matches U log(sigma) U^T near the identity", "[m
         Eigen::Matrix3f big = Eigen::Matrix3f::Zero();
         big(0, 0) = 0.2f;
         Eigen::Matrix3f eps = Eigen::Matrix3f::Constant(7.f);
-        REQUIRE_FALSE(henckyStrainSeries(big, dim, eps));
+        REQUIRE(henckyStrainSeries(&big, 1, dim, &eps) == 0u);
         REQUIRE(eps(0, 0) == 7.f);
     }
 }
@@ -60,8 +60,8 @@ TEST_CASE("plane-strain series Hencky strain is the 3D series of the plane-strai
             planar.row(2).setZero(), planar.col(2).setZero();
             Eigen::Matrix3f eps2 = Eigen::Matrix3f::Constant(7.f);
             Eigen::Matrix3f eps3 = Eigen::Matrix3f::Constant(7.f);
-            const bool ok2 = henckyStrainSeries(H, 2, eps2);
-            REQUIRE(ok2 == henckyStrainSeries(planar, 3, eps3));
+            const bool ok2 = henckyStrainSeries(&H, 1, 2, &eps2) == 1u;
+            REQUIRE(ok2 == (henckyStrainSeries(&planar, 1, 3, &eps3) == 1u));
             if (!ok2) continue;
             ++compared;
             INFO("scale " << scale);
@@ -71,4 +71,32 @@ TEST_CASE("plane-strain series Hencky strain is the 3D series of the plane-strai
         }
     }
     REQUIRE(compared > 100000); // every term count (3, 4, 5 and 7) is reached and compared
+}
+
+TEST_CASE("a batch of series Hencky strains is each particle's alone", "[material]") {
+    // Lanes do not mix: a batch of kHenckyBatch gradients, some too large for the series, gives
+    // each particle bitwise what a batch of one gives it, and leaves the refused ones untouched.
+    std::mt19937 rng(23);
+    std::normal_distribution<float> n01(0.f, 1e-2f);
+    for (int dim = 2; dim <= 3; ++dim)
+        for (int count = 1; count <= kHenckyBatch; ++count) {
+            Eigen::Matrix3f H[kHenckyBatch], eps[kHenckyBatch];
+            for (int l = 0; l < count; ++l) {
+                H[l].setZero();
+                for (int a = 0; a < dim; ++a)
+                    for (int b = 0; b < dim; ++b) H[l](a, b) = n01(rng);
+                if (l % 3 == 2) H[l](0, 0) = 0.2f; // beyond the series
+                eps[l] = Eigen::Matrix3f::Constant(7.f);
+            }
+            const unsigned ok = henckyStrainSeries(H, count, dim, eps);
+            for (int l = 0; l < count; ++l) {
+                Eigen::Matrix3f alone = Eigen::Matrix3f::Constant(7.f);
+                const unsigned okAlone = henckyStrainSeries(&H[l], 1, dim, &alone);
+                INFO("dim " << dim << ", batch of " << count << ", particle " << l);
+                REQUIRE(((ok >> l) & 1u) == okAlone);
+                REQUIRE(okAlone == (l % 3 == 2 ? 0u : 1u));
+                REQUIRE(eps[l] == alone);
+            }
+            REQUIRE(ok >> count == 0u);
+        }
 }

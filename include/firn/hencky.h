@@ -5,12 +5,17 @@
 
 namespace firn {
 
-/// Hencky strain eps = 1/2 log(F F^T) of the leading dim x dim block of F = I + H, given the
-/// displacement gradient H (ParticleSet::H), by the series log(I + X) = X - X^2/2 + ... (3 to 7
-/// terms, chosen by ||X||) with X = F F^T - I = H + H^T + H H^T, summed as a polynomial of degree
-/// d - 1 in X (Cayley-Hamilton): one symmetric product X^2 in 3D, none in 2D. Returns false,
-/// leaving eps untouched, when ||X||_F > 0.1: there the truncation error 0.1^8/8 would pass float
-/// precision and the caller must decompose.
-bool henckyStrainSeries(const Eigen::Matrix3f& displacementGradient, int dim, Eigen::Matrix3f& eps);
+/// Particles per call of henckyStrainSeries: one AVX register of floats.
+constexpr int kHenckyBatch = 8;
+
+/// Hencky strains eps = 1/2 log(F F^T) of the leading dim x dim blocks of F = I + H for `count`
+/// (<= kHenckyBatch) displacement gradients H (ParticleSet::H) at once, by the series log(I + X)
+/// = X - X^2/2 + ... (7 terms) with X = F F^T - I = H + H^T + H H^T, summed as a polynomial of
+/// degree d - 1 in X (Cayley-Hamilton): one symmetric product X^2 in 3D, none in 2D, and the
+/// particles side by side in SIMD lanes. Returns a bit mask of the particles whose eps[l] it
+/// wrote; a particle with ||X||_F > 0.1 is left out (its eps untouched): there the truncation
+/// error 0.1^8/8 would pass float precision and the caller must decompose.
+unsigned henckyStrainSeries(const Eigen::Matrix3f* displacementGradients, int count, int dim,
+                            Eigen::Matrix3f* eps);
 
 } // namespace firn

@@ -38,12 +38,10 @@ Sym3f rotateDiagonal(const Mat3f& U, const Vec3f& d) {
 }
 
 /// Most particles are inside their yield surface with stretches near 1: there the Hencky strain
-/// comes from a series and the stress needs no principal decomposition. Returns false when the
-/// particle needs the full path (large stretch or yielding).
-bool elasticFastPath(const Material& mat, const Mat3f& H, const PlasticState& state, int dim,
+/// eps comes from a series (henckyStrainSeries, a batch at a time) and the stress needs no
+/// principal decomposition. Returns false when the particle needs the full path (yielding).
+bool elasticFastPath(const Material& mat, const Mat3f& eps, const PlasticState& state, int dim,
                      Sym3f& tau) {
-    Mat3f eps;
-    if (!henckyStrainSeries(H, dim, eps)) return false;
     const float tr = eps.trace();
     const float devNorm = std::sqrt(std::max(0.f, eps.squaredNorm() - tr * tr / float(dim)));
     if (!staysElastic(mat, tr, devNorm, state)) return false;
@@ -239,10 +237,18 @@ void applyPlasticity(World& world, double stateTime) {
     ParticleSet& ps = world.particles;
     const int dim = world.dim;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
+        Mat3f series[kHenckyBatch];
+        unsigned inSeries = 0;
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
+            const std::size_t lane = (i - r.begin()) % kHenckyBatch;
+            if (lane == 0)
+                inSeries = henckyStrainSeries(
+                    &ps.H[i], int(std::min<std::size_t>(kHenckyBatch, r.end() - i)), dim, series);
             if (ps.asleep(i)) continue;
             const Material& mat = world.materials[ps.material[i]];
-            if (elasticFastPath(mat, ps.H[i], ps.plastic[i], dim, ps.tau[i])) continue;
+            if ((inSeries >> lane & 1u) &&
+                elasticFastPath(mat, series[lane], ps.plastic[i], dim, ps.tau[i]))
+                continue;
             const LeftStretch ls = leftStretch(ps.deformationGradient(i), dim);
             Vec3f eps = Vec3f::Zero();
             for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
