@@ -44,6 +44,37 @@ struct Grid::Impl {
     int auxChannels = 0;
     std::vector<NeighbourIndices> blocksOfParticleLeaf;
     std::vector<NeighbourIndices> particleLeavesOfBlock;
+    std::vector<LeafKey> particleLeaves; ///< what the topology was built from (a function of
+    int particleDim = 0;                 ///< the particle leaves and the dimension alone)
+
+    void buildTopology(const ParticleSet& particles) {
+        particleLeaves = particles.leaves;
+        particleDim = particles.dim;
+        const int no = offsetCount(particles.dim);
+        std::vector<LeafKey> newKeys;
+        newKeys.reserve(particles.leafCount() * no);
+        for (const LeafKey& k : particles.leaves)
+            for (int o = 0; o < no; ++o) newKeys.push_back(shifted(k, o, +1));
+        std::sort(newKeys.begin(), newKeys.end());
+        newKeys.erase(std::unique(newKeys.begin(), newKeys.end()), newKeys.end());
+        if (newKeys != keys) {
+            retopologise(massTree, massLeaves, newKeys);
+            retopologise(velocityTree, velocityLeaves, newKeys);
+            keys.swap(newKeys);
+        }
+        blocksOfParticleLeaf.resize(particles.leafCount());
+        for (std::size_t l = 0; l < particles.leafCount(); ++l) {
+            blocksOfParticleLeaf[l].fill(-1);
+            for (int o = 0; o < no; ++o)
+                blocksOfParticleLeaf[l][o] = findKey(keys, shifted(particles.leaves[l], o, +1));
+        }
+        particleLeavesOfBlock.resize(keys.size());
+        for (std::size_t b = 0; b < keys.size(); ++b) {
+            particleLeavesOfBlock[b].fill(-1);
+            for (int o = 0; o < no; ++o)
+                particleLeavesOfBlock[b][o] = findKey(particles.leaves, shifted(keys[b], o, -1));
+        }
+    }
 
     // Keeps the leaves that stay (their buffers are rewritten by every P2G), frees the rest
     // and allocates the new ones: no per-step reallocation of a steady topology.
@@ -68,34 +99,11 @@ Grid::~Grid() = default;
 
 void Grid::rebuild(const ParticleSet& particles, int auxChannels) {
     Impl& g = *mImpl;
-    const int no = offsetCount(particles.dim);
-    std::vector<LeafKey> keys;
-    keys.reserve(particles.leafCount() * no);
-    for (const LeafKey& k : particles.leaves)
-        for (int o = 0; o < no; ++o) keys.push_back(shifted(k, o, +1));
-    std::sort(keys.begin(), keys.end());
-    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-
-    if (keys != g.keys) {
-        g.retopologise(g.massTree, g.massLeaves, keys);
-        g.retopologise(g.velocityTree, g.velocityLeaves, keys);
-        g.keys.swap(keys);
-    }
+    // Most steps no particle changes leaf (ParticleSet::bucketByLeaf): the topology stands.
+    if (particles.leaves != g.particleLeaves || particles.dim != g.particleDim || g.keys.empty())
+        g.buildTopology(particles);
     g.auxChannels = auxChannels;
     g.aux.resize(std::size_t(auxChannels) * kLeafNodes * g.keys.size());
-
-    g.blocksOfParticleLeaf.resize(particles.leafCount());
-    for (std::size_t l = 0; l < particles.leafCount(); ++l) {
-        g.blocksOfParticleLeaf[l].fill(-1);
-        for (int o = 0; o < no; ++o)
-            g.blocksOfParticleLeaf[l][o] = findKey(g.keys, shifted(particles.leaves[l], o, +1));
-    }
-    g.particleLeavesOfBlock.resize(g.keys.size());
-    for (std::size_t b = 0; b < g.keys.size(); ++b) {
-        g.particleLeavesOfBlock[b].fill(-1);
-        for (int o = 0; o < no; ++o)
-            g.particleLeavesOfBlock[b][o] = findKey(particles.leaves, shifted(g.keys[b], o, -1));
-    }
 }
 
 std::size_t Grid::blockCount() const {
