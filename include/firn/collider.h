@@ -24,6 +24,10 @@ public:
 
     /// Signed distance to the ground surface: > 0 above (outside), <= 0 inside.
     float signedDistance(const Vec3f& x) const;
+    /// True only where signedDistance(x) > reach, found cheaply: a profile bounds its distance
+    /// by the height above its ground over x instead of searching its segments. False tells
+    /// nothing (ask signedDistance). The grid's nodes far above the ground skip the search.
+    bool clearOf(const Vec3f& x, float reach) const;
     /// Outward unit normal of the nearest surface point.
     Vec3f normal(const Vec3f& x) const;
     /// Ground height under x (profile and plane; used to drape layers), m.
@@ -68,6 +72,7 @@ private:
     Vec3f mPoint = Vec3f::Zero();
     Vec3f mNormal = Vec3f::UnitY();
     std::vector<std::array<float, 2>> mProfile;
+    float mProfileSecant = 1.f; ///< sqrt(1 + slope^2) of the profile's steepest segment
     std::shared_ptr<const Heightfield> mHeightfield;
 
     // Nearest point on the profile polyline (x-y plane) and the sign of the side.

@@ -19,6 +19,11 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     if (dim == 2) c.mPoint[2] = 0.f, c.mNormal[2] = 0.f;
     c.mNormal.normalize();
     for (const auto& p : desc.points) c.mProfile.push_back({float(p[0]), float(p[1])});
+    for (std::size_t k = 0; k + 1 < c.mProfile.size(); ++k) {
+        const float slope =
+            (c.mProfile[k + 1][1] - c.mProfile[k][1]) / (c.mProfile[k + 1][0] - c.mProfile[k][0]);
+        c.mProfileSecant = std::max(c.mProfileSecant, std::sqrt(1.f + slope * slope));
+    }
     if (desc.shape == TerrainShape::Heightfield)
         c.mHeightfield = std::make_shared<const Heightfield>(
             readDem(desc.file, desc.noData)
@@ -94,6 +99,17 @@ float Collider::heightAt(float xCoord, float zCoord) const {
     const auto& a = mProfile[s];
     const auto& b = mProfile[s + 1];
     return a[1] + (b[1] - a[1]) * (xCoord - a[0]) / (b[0] - a[0]);
+}
+
+bool Collider::clearOf(const Vec3f& x, float reach) const {
+    if (mShape != TerrainShape::Profile) return signedDistance(x) > reach;
+    // A profile is the graph of a function whose slope is at most sqrt(secant^2 - 1): a point
+    // h above it lies at least h / secant from it. Twice the reach, and a margin for the float
+    // rounding of either computation (a few ulps of the coordinates), keep the answer on the
+    // side of the full search's.
+    const float height = x[1] - heightAt(x[0], 0.f);
+    const float margin = 1e-5f * (1.f + std::abs(x[0]) + std::abs(x[1]));
+    return height > mProfileSecant * (2.f * reach + margin);
 }
 
 float Collider::signedDistance(const Vec3f& x) const {

@@ -36,6 +36,7 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float
                         std::uint8_t state = kFree;
                         Vec3f mirrorPoint = Vec3f::Zero();
                         for (const Collider* c : sticky) {
+                            if (c->clearOf(x, tolerance)) continue;
                             const float phi = c->signedDistance(x);
                             if (phi > tolerance) continue;
                             if (phi >= -tolerance) { // on the surface: at rest

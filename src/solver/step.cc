@@ -98,6 +98,7 @@ namespace {
 /// The slip surface's normal at a node: the nearest terrain's (layers lie parallel to it), or
 /// against gravity without terrain.
 Vec3f slipNormal(const World& world, const Vec3f& xn) {
+    if (world.colliders.size() == 1) return world.colliders.front().normal(xn);
     const Collider* nearest = nullptr;
     float distance = std::numeric_limits<float>::infinity();
     for (const Collider& c : world.colliders) {
@@ -172,7 +173,8 @@ void updateGridVelocity(World& world, float dt) {
                             // Sticky colliders were evaluated by the fold: their held nodes stop.
                             if (walls.isHeld(b, n)) vn = Vec3f::Zero();
                             for (const Collider& c : world.colliders)
-                                if (!c.mirrorsInside() && c.signedDistance(xn) <= tolerance)
+                                if (!c.mirrorsInside() && !c.clearOf(xn, tolerance) &&
+                                    c.signedDistance(xn) <= tolerance)
                                     vn = c.applyBoundary(vn, c.normal(xn));
                             v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
                         }
@@ -181,7 +183,7 @@ void updateGridVelocity(World& world, float dt) {
                             // at the lower field's ghosts) it stops, as a zeroed node.
                             if (ghost) vUpper = Vec3f::Zero();
                             for (const Collider& c : world.colliders)
-                                if (c.signedDistance(xn) <= tolerance)
+                                if (!c.clearOf(xn, tolerance) && c.signedDistance(xn) <= tolerance)
                                     vUpper = c.applyBoundary(vUpper, c.normal(xn));
                             for (int c = 0; c < 3; ++c) vUpperOut[c] = vUpper[c];
                         }
