@@ -192,6 +192,17 @@ inline int overlapShift(int o, int axisBit) {
     return (o >> axisBit) & 1 ? kLeafDim : 0;
 }
 
+/// Calls fn(n) for the nodes of a grid block that a Dim-dimensional run uses: all 512 in 3D,
+/// the 64 of its z = 0 plane in 2D (the others stay zero: nothing scatters to them).
+template <int Dim, typename Fn> inline void forEachNode(Fn&& fn) {
+    if (Dim == 3) {
+        for (int n = 0; n < kLeafNodes; ++n) fn(n);
+        return;
+    }
+    for (int i = 0; i < kLeafDim; ++i)
+        for (int j = 0; j < kLeafDim; ++j) fn(leafOffset(i, j, 0));
+}
+
 /// Merge phase: every grid block sums its overlapping padded blocks in the fixed order
 /// o = 0 .. 2^Dim - 1 into acc[512 * packedChannels<NC>()], then hands it to sink(b, acc).
 template <int Dim, int NC, typename SinkFn>
@@ -202,7 +213,7 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
         std::vector<float> acc(std::size_t(kLeafNodes) * PC);
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
-            std::fill(acc.begin(), acc.end(), 0.f);
+            forEachNode<Dim>([&](int n) { std::fill_n(acc.data() + PC * n, PC, 0.f); });
             for (int o = 0; o < (1 << Dim); ++o) {
                 const std::int32_t l = sources[b][o];
                 if (l < 0) continue;
@@ -304,7 +315,7 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
         float* mass = grid.mass(b);
         float* mom = grid.velocity(b);
         float* aux = grid.aux(b);
-        for (int n = 0; n < kLeafNodes; ++n) {
+        forEachNode<Dim>([&](int n) {
             const float* a = acc + Padded::lanes * n;
             const float* up = a + Padded::upperAt;
             float* x = aux + stride * n;
@@ -317,7 +328,7 @@ void p2gTwoFields(const ParticleSet& ps, Grid& grid, const TransferParams& param
             }
             x[layout.upperMass()] = up[0];
             x[layout.bond()] = a[weakAt + 1] > 0.5f * a[weakAt] ? 1.f : 0.f;
-        }
+        });
     });
 }
 
@@ -344,10 +355,10 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
             float* mass = grid.mass(b);
             float* mom = grid.velocity(b);
-            for (int n = 0; n < kLeafNodes; ++n) {
+            forEachNode<Dim>([&](int n) {
                 mass[n] = acc[4 * n];
                 for (int c = 0; c < 3; ++c) mom[3 * n + c] = acc[4 * n + 1 + c];
-            }
+            });
         });
         return;
     }
@@ -366,13 +377,13 @@ void p2g(const ParticleSet& ps, Grid& grid, const TransferParams& params,
         float* mom = grid.velocity(b);
         float* impulse = grid.aux(b);
         constexpr int pc = packedChannels<7>();
-        for (int n = 0; n < kLeafNodes; ++n) {
+        forEachNode<Dim>([&](int n) {
             mass[n] = acc[pc * n];
             for (int c = 0; c < 3; ++c) {
                 mom[3 * n + c] = acc[pc * n + 1 + c];
                 impulse[3 * n + c] = acc[pc * n + 4 + c];
             }
-        }
+        });
     });
 }
 
@@ -547,7 +558,7 @@ void xpic(const ParticleSet& ps, const Grid& grid, const TransferParams& params,
                                             return false;
                                         });
         mergeBlocks<Dim, 4>(grid, scratch.padded, [&](std::size_t b, const float* acc) {
-            for (int n = 0; n < kLeafNodes; ++n) {
+            forEachNode<Dim>([&](int n) {
                 const float m = acc[4 * n];
                 float* t = term.data() + (b * kLeafNodes + n) * 3;
                 float* total = sum.data() + (b * kLeafNodes + n) * 3;
@@ -555,7 +566,7 @@ void xpic(const ParticleSet& ps, const Grid& grid, const TransferParams& params,
                     t[c] = m > 0.f ? t[c] - acc[4 * n + 1 + c] / m : 0.f;
                     total[c] += t[c];
                 }
-            }
+            });
         });
     }
 }
@@ -584,16 +595,16 @@ VolumeFrame rasterize(const ParticleSet& ps, const Grid& grid, TransferScratch& 
         const LeafKey& k = grid.blockKey(b);
         vf.origin[b] = {k[0] * kLeafDim, k[1] * kLeafDim, k[2] * kLeafDim};
         constexpr int pc = packedChannels<6>();
-        for (int n = 0; n < kLeafNodes; ++n) {
+        forEachNode<Dim>([&](int n) {
             const float* a = acc + pc * n;
             const float m = a[0];
-            if (m <= 0.f) continue;
+            if (m <= 0.f) return;
             const std::size_t at = b * kLeafNodes + n;
             vf.density[at] = m / cellVolume;
             vf.velocity[at] = {a[1] / m, a[2] / m, a[3] / m};
             vf.failed[at] = std::min(1.f, a[4] / m);
             vf.eta[at] = a[5] / m;
-        }
+        });
     });
     return vf;
 }
