@@ -159,12 +159,14 @@ void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipD
     using Layout = PaddedLayout<NC, UpperAt>;
     constexpr int lanes = Layout::lanes;
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * lanes;
-    padded.assign(ps.leafCount() * stride, 0.f);
+    padded.resize(ps.leafCount() * stride);
     const float invDx = 1.f / ps.dx;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
         for (std::size_t l = r.begin(); l != r.end(); ++l) {
-            if (skipDeepSleepers && ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
+            // Each leaf zeroes its own block: in parallel, and into the cache it scatters in.
             float* buf = padded.data() + l * stride;
+            std::fill_n(buf, stride, 0.f);
+            if (skipDeepSleepers && ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                 float value[lanes] = {};
@@ -211,9 +213,9 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * PC;
     const auto& sources = grid.particleLeavesOfBlock();
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, grid.blockCount(), 1), [&](const auto& r) {
-        std::vector<float> acc(std::size_t(kLeafNodes) * PC);
+        alignas(32) float acc[kLeafNodes * PC]; // on the stack: no allocation per block
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
-            forEachNode<Dim>([&](int n) { std::fill_n(acc.data() + PC * n, PC, 0.f); });
+            forEachNode<Dim>([&](int n) { std::fill_n(acc + PC * n, PC, 0.f); });
             for (int o = 0; o < (1 << Dim); ++o) {
                 const std::int32_t l = sources[b][o];
                 if (l < 0) continue;
@@ -225,11 +227,11 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
                             const float* s = src + PC * paddedIndex<Dim>(i + overlapShift(o, 0),
                                                                          j + overlapShift(o, 1),
                                                                          k + overlapShift(o, 2));
-                            float* d = acc.data() + PC * leafOffset(i, j, k);
+                            float* d = acc + PC * leafOffset(i, j, k);
                             for (int ch = 0; ch < PC; ++ch) d[ch] += s[ch];
                         }
             }
-            sink(b, acc.data());
+            sink(b, static_cast<const float*>(acc));
         }
     });
 }
