@@ -32,7 +32,7 @@ struct World {
     float flipRelaxationTime = 0.f; ///< s; > 0: blend exp(-dt / time) (GridDesc)
     int xpicOrder = 2;              ///< XPIC(m)'s m (GridDesc)
     float cfl = 0.4f;
-    float maxDt = 1e-3f;
+    float maxDt = std::numeric_limits<float>::infinity(); ///< s (GridDesc::maxDt)
     Vec3f gravity = Vec3f(0.f, -9.81f, 0.f);
     float gravityRamp = 0.f;  ///< s, see SimulationDesc::gravityRamp
     bool sleep = true;        ///< see GridDesc::sleep
