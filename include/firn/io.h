@@ -60,6 +60,25 @@ std::string frameFileName(const std::string& stem, int frame);
 /// Writes `text` to `path` atomically (temporary file in the same folder, then rename).
 void writeFileAtomic(const std::string& path, const std::string& text);
 
+/// A file written in pieces and put at its name only when whole, as writeFileAtomic does: for
+/// outputs too large to build in memory first (a DEM's terrain mesh). Without commit() the
+/// temporary file is removed and `path` left as it was. Errors are IoError with the path.
+class AtomicFileWriter {
+public:
+    explicit AtomicFileWriter(const std::string& path);
+    ~AtomicFileWriter();
+    AtomicFileWriter(const AtomicFileWriter&) = delete;
+    AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
+    /// Appends `text` to the temporary file.
+    void write(const std::string& text);
+    /// Syncs and closes the temporary file, then renames it to `path`.
+    void commit();
+
+private:
+    std::string mPath, mTmp;
+    int mFd = -1;
+};
+
 /// Creates a folder and its parents; throws IoError with the path on failure.
 void makeDirectories(const std::string& path);
 

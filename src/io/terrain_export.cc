@@ -227,7 +227,16 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
                      const Vec3d& origin) {
     const int nx = cellsAlong(e.x0, e.x1, spacing), nz = cellsAlong(e.z0, e.z1, spacing);
     const double sx = (e.x1 - e.x0) / nx, sz = (e.z1 - e.z0) / nz;
+    // Written in pieces of about a megabyte: a DEM's mesh is tens of megabytes, more than the
+    // rest of a small run holds.
+    AtomicFileWriter file(path);
+    constexpr std::size_t kPiece = std::size_t(1) << 20;
     std::string out = "# Firn terrain: ground height field, y up, metres\n";
+    auto flush = [&](std::size_t atLeast) {
+        if (out.size() < atLeast) return;
+        file.write(out);
+        out.clear();
+    };
     std::istringstream lines(comment);
     for (std::string line; std::getline(lines, line);) out += "# " + line + "\n";
     char header[160];
@@ -243,6 +252,7 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
             const double x = e.x0 + i * sx, z = e.z0 + k * sz;
             appendf(out, "v %.12g %.12g %.12g\n", x + origin[0], height(x, z) + origin[1],
                     z + origin[2]);
+            flush(kPiece);
         }
     for (int i = 0; i <= nx; ++i)
         for (int k = 0; k <= nz; ++k) {
@@ -251,6 +261,7 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
             const double hz = (height(x, z + sz) - height(x, z - sz)) / (2 * sz);
             const double len = std::sqrt(1 + hx * hx + hz * hz);
             appendf(out, "vn %.6g %.6g %.6g\n", -hx / len, 1 / len, -hz / len);
+            flush(kPiece);
         }
     // OBJ indices are 1-based; vertex and normal indices coincide. Counter-clockwise seen from
     // above, so that the faces' own normals point up as well.
@@ -265,8 +276,10 @@ void writeTerrainObj(const std::string& path, const std::vector<Collider>& colli
                                         "f %d//%d %d//%d %d//%d\n",
                                         a, a, b, b, c, c, a, a, c, c, d, d);
             out.append(line, std::size_t(n));
+            flush(kPiece);
         }
-    writeFileAtomic(path, out);
+    flush(0);
+    file.commit();
 }
 
 void writeTerrainLevelSet(const std::string& path, const std::vector<Collider>& colliders,

@@ -46,21 +46,6 @@ void writeAll(int fd, const std::string& text, const std::string& path) {
     }
 }
 
-/// Writes and syncs `tmp`; the sync comes before the rename, so that a power cut cannot leave
-/// the final name on an empty file.
-void writeTempFile(const std::string& tmp, const std::string& text, const std::string& path) {
-    const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-    if (fd < 0) throw writeError(path, errno);
-    try {
-        writeAll(fd, text, path);
-        if (::fsync(fd) != 0) throw writeError(path, errno);
-    } catch (...) {
-        ::close(fd);
-        throw;
-    }
-    if (::close(fd) != 0) throw writeError(path, errno);
-}
-
 /// RFC 4180 quoting, needed only if a cell ever holds a comma, a quote or a line break.
 std::string csvField(const std::string& cell) {
     if (cell.find_first_of(",\"\r\n") == std::string::npos) return cell;
@@ -120,13 +105,41 @@ std::string frameFileName(const std::string& stem, int frame) {
 }
 
 void writeFileAtomic(const std::string& path, const std::string& text) {
-    const std::string tmp = tempPathFor(path);
-    try {
-        writeTempFile(tmp, text, path);
-        if (std::rename(tmp.c_str(), path.c_str()) != 0) throw writeError(path, errno);
-    } catch (...) {
-        std::remove(tmp.c_str());
-        throw;
+    AtomicFileWriter file(path);
+    file.write(text);
+    file.commit();
+}
+
+AtomicFileWriter::AtomicFileWriter(const std::string& path)
+    : mPath(path)
+    , mTmp(tempPathFor(path))
+    , mFd(::open(mTmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644)) {
+    if (mFd < 0) throw writeError(mPath, errno);
+}
+
+AtomicFileWriter::~AtomicFileWriter() {
+    if (mFd < 0) return;
+    ::close(mFd);
+    std::remove(mTmp.c_str());
+}
+
+void AtomicFileWriter::write(const std::string& text) {
+    writeAll(mFd, text, mPath);
+}
+
+void AtomicFileWriter::commit() {
+    // The sync comes before the rename, so that a power cut cannot leave the final name on an
+    // empty file.
+    const int fd = mFd;
+    mFd = -1;
+    const bool synced = ::fsync(fd) == 0;
+    const int syncError = errno;
+    const bool closed = ::close(fd) == 0;
+    const int closeError = errno;
+    if (!synced || !closed || std::rename(mTmp.c_str(), mPath.c_str()) != 0) {
+        const int error = !synced ? syncError : !closed ? closeError : errno;
+        std::remove(mTmp.c_str());
+        throw writeError(mPath, error);
     }
 }
 
@@ -198,7 +211,8 @@ void MetricsWriter::appendRow(const std::vector<std::string>& cells) {
         // A full disk may have taken part of the row: cut it off, so that every row on disk
         // is whole (a resumed run continues the file).
         std::clearerr(file);
-        if (before >= 0 && ::ftruncate(fileno(file), before) == 0) std::fseek(file, before, SEEK_SET);
+        if (before >= 0 && ::ftruncate(fileno(file), before) == 0)
+            std::fseek(file, before, SEEK_SET);
         throw writeError(mPath, errnum);
     }
 }
