@@ -25,8 +25,9 @@ public:
     /// Signed distance to the ground surface: > 0 above (outside), <= 0 inside.
     float signedDistance(const Vec3f& x) const;
     /// True only where signedDistance(x) > reach, found cheaply: a profile bounds its distance
-    /// by the height above its ground over x instead of searching its segments. False tells
-    /// nothing (ask signedDistance). The grid's nodes far above the ground skip the search.
+    /// by the height above its ground over x instead of searching its segments (other shapes
+    /// answer false). False tells nothing (ask signedDistance). The grid's nodes far above a
+    /// profile skip the search.
     bool clearOf(const Vec3f& x, float reach) const;
     /// Outward unit normal of the nearest surface point.
     Vec3f normal(const Vec3f& x) const;

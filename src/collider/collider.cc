@@ -102,7 +102,8 @@ float Collider::heightAt(float xCoord, float zCoord) const {
 }
 
 bool Collider::clearOf(const Vec3f& x, float reach) const {
-    if (mShape != TerrainShape::Profile) return signedDistance(x) > reach;
+    // A plane's or a heightfield's distance is as cheap as a bound: the caller asks it once.
+    if (mShape != TerrainShape::Profile) return false;
     // A profile is the graph of a function whose slope is at most sqrt(secant^2 - 1): a point
     // h above it lies at least h / secant from it. Twice the reach, and a margin for the float
     // rounding of either computation (a few ulps of the coordinates), keep the answer on the
