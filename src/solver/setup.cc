@@ -3,6 +3,9 @@
 #include <firn/slip_contact.h>
 #include <firn/solver.h>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -116,6 +119,8 @@ struct ThicknessField {
         const double f = std::sqrt(2.0 / kModes) * sum;
         return base * std::max(0.05, 1.0 + std * f);
     }
+    /// No point is thicker: |f| <= sqrt(2/N) N = sqrt(2N), and the base is at most t0.
+    double bound() const { return t0 * (1.0 + std * std::sqrt(2.0 * kModes)); }
 };
 
 /// The layer bodies from `body` down to the ground: body, the one it sits on, ...
@@ -205,15 +210,27 @@ SeedRegion regionOf(const SceneDesc& scene, std::size_t bodyIndex,
         // Normal thickness on slopes up to ~75 degrees fits in 4 times the vertical span.
         r.lo = Vec3f(x0, hLo - float(maxStack), z0);
         r.hi = Vec3f(x1, hHi + 4.f * float(maxStack), z1);
-        r.inside = [&colliders, &fields, chain, x0, x1, z0, z1, dim](const Vec3f& p) {
+        double belowBound = 0.0; // the thickest the layers below can be anywhere
+        for (std::size_t k = 1; k < chain.size(); ++k) belowBound += fields[chain[k]].bound();
+        const double ownBound = fields[chain[0]].bound();
+        // The ground distance first: most of the box is far above the layer, and the thickness
+        // noise (64 cosines a field) is only needed where the bounds cannot decide.
+        r.inside = [&colliders, &fields, chain, x0, x1, z0, z1, dim, belowBound,
+                    ownBound](const Vec3f& p) {
             if (p[0] < x0 || p[0] >= x1) return false;
             if (dim == 3 && (p[2] < z0 || p[2] >= z1)) return false;
+            const float reach = float(belowBound + ownBound);
+            if (std::all_of(colliders.begin(), colliders.end(),
+                            [&](const Collider& c) { return c.clearOf(p, reach); }))
+                return false; // far above every profile: no segment search
+            const double d = groundDistance(colliders, p);
+            if (d < 0.0 || d >= belowBound + ownBound) return false;
             double base = 0.0; // the layers below, each with its thickness here
             for (std::size_t k = 1; k < chain.size(); ++k) base += fields[chain[k]].at(p[0], p[2]);
+            if (d < base || d >= base + ownBound) return false;
             const double own = fields[chain[0]].at(p[0], p[2]);
             if (own <= 0.0) return false; // outside a polygon body's areas
-            const double d = groundDistance(colliders, p);
-            return d >= base && d < base + own;
+            return d < base + own;
         };
     }
     if (dim == 2) r.lo[2] = r.hi[2] = 0.f;
@@ -262,33 +279,47 @@ void forEachSeed(const SceneDesc& scene, const std::vector<Collider>& colliders,
             c0[a] = long(std::floor(region.lo[a] / dx));
             c1[a] = long(std::ceil(region.hi[a] / dx));
         }
-        for (long cx = c0[0]; cx < c1[0]; ++cx)
-            for (long cy = c0[1]; cy < c1[1]; ++cy)
-                for (long cz = c0[2]; cz < std::max(c1[2], c0[2] + 1); ++cz) {
-                    std::uint64_t state = splitMix(scene.simulation.seed * 0x9e37ull + bi);
-                    state = splitMix(state ^ std::uint64_t(cx) * 0x100000001b3ull);
-                    state = splitMix(state ^ std::uint64_t(cy) * 0x1000193ull);
-                    state = splitMix(state ^ std::uint64_t(cz));
-                    for (int s = 0; s < ppc; ++s) {
-                        const int sub[3] = {s % k, (s / k) % k, s / (k * k)};
-                        Vec3f p = Vec3f::Zero();
-                        const long cell[3] = {cx, cy, cz};
-                        for (int a = 0; a < dim; ++a) {
-                            const float u = uniform01(state);
-                            const float f = lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k : u;
-                            p[a] = float((double(cell[a]) + f) * dx);
+        // Each cell draws from its own random stream, so the columns of cells along x are
+        // seeded in parallel and emitted in order: the same particles for any thread count.
+        struct Seed {
+            Vec3f p;
+            bool inCut;
+        };
+        std::vector<std::vector<Seed>> columns(std::size_t(std::max(0l, c1[0] - c0[0])));
+        tbb::parallel_for(tbb::blocked_range<long>(c0[0], c1[0]), [&](const auto& range) {
+            for (long cx = range.begin(); cx < range.end(); ++cx) {
+                std::vector<Seed>& out = columns[std::size_t(cx - c0[0])];
+                for (long cy = c0[1]; cy < c1[1]; ++cy)
+                    for (long cz = c0[2]; cz < std::max(c1[2], c0[2] + 1); ++cz) {
+                        std::uint64_t state = splitMix(scene.simulation.seed * 0x9e37ull + bi);
+                        state = splitMix(state ^ std::uint64_t(cx) * 0x100000001b3ull);
+                        state = splitMix(state ^ std::uint64_t(cy) * 0x1000193ull);
+                        state = splitMix(state ^ std::uint64_t(cz));
+                        for (int s = 0; s < ppc; ++s) {
+                            const int sub[3] = {s % k, (s / k) % k, s / (k * k)};
+                            Vec3f p = Vec3f::Zero();
+                            const long cell[3] = {cx, cy, cz};
+                            for (int a = 0; a < dim; ++a) {
+                                const float u = uniform01(state);
+                                const float f =
+                                    lattice ? (sub[a] + 0.5f + jitter * (u - 0.5f)) / k : u;
+                                p[a] = float((double(cell[a]) + f) * dx);
+                            }
+                            if (!region.inside(p)) continue;
+                            bool taken = false;
+                            for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
+                                taken = regions[e].inside(p);
+                            if (taken) continue;
+                            const CutDesc* cut = cutAt(scene, body, p);
+                            // A quasi-static saw cuts before the snowpack settles: no seed there.
+                            if (cut && cut->saw == Saw::QuasiStatic) continue;
+                            out.push_back({p, cut != nullptr});
                         }
-                        if (!region.inside(p)) continue;
-                        bool taken = false;
-                        for (std::size_t e = 0; e + 1 < regions.size() && !taken; ++e)
-                            taken = regions[e].inside(p);
-                        if (taken) continue;
-                        const CutDesc* cut = cutAt(scene, body, p);
-                        // A quasi-static saw cuts before the snowpack settles: no seed there.
-                        if (cut && cut->saw == Saw::QuasiStatic) continue;
-                        emit(p, bi, cut != nullptr);
                     }
-                }
+            }
+        });
+        for (const std::vector<Seed>& column : columns)
+            for (const Seed& seed : column) emit(seed.p, bi, seed.inCut);
     }
 }
 
