@@ -9,7 +9,8 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build libopenvdb-dev libopenvdb-tools libtbb-dev
           libeigen3-dev libblosc-dev libboost-iostreams-dev catch2 libtomlplusplus-dev
-          libpng-dev libgdal-dev python3-matplotlib python3-numpy python3-openvdb ffmpeg blender)
+          libpng-dev libgdal-dev python3-matplotlib python3-numpy python3-openvdb ffmpeg blender
+          mkdocs)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

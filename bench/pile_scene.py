@@ -4,7 +4,7 @@
 The pile of `tests/validation/flow_test.cc` (half-width R 4 m, density 1500 kg/m^3, E 5 MPa,
 nu 0.3, 4 particles per cell, CFL 0.4, no sleeping, bed friction tan(phi)), with its flanks at any
 angle, written as one box per particle column (the exact shape at particle resolution, as the
-test seeds it). README "Known limitations" (*A granular pile with flanks at its friction angle*)
+test seeds it). docs/limitations.md (*A granular pile with flanks at its friction angle*)
 runs it at flank angles around phi and the flowing angle atan(sin phi):
 
     /usr/bin/python3 bench/pile_scene.py --flank 29 --dx 0.05 > pile.toml

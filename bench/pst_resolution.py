@@ -25,7 +25,7 @@ layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; pa
 stay 4. --weak-thickness T gives the layer another thickness with the PST layer's collapse energy
 per unit area: the scene's softening times T over its thickness (100 T / 0.06), and
 softening_length T, so that the crack band scales the softening wherever its 6 cells are thinner
-than T (README, Snow -> Resolution); the closed form takes D_wl = T.
+than T (docs/snow.md, Resolution); the closed form takes D_wl = T.
 """
 import argparse
 import csv

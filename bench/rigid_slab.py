@@ -11,7 +11,7 @@ keeps its shape along the ground, and integrates
 concave slope presses the slab harder), from rest at the release time, for each friction mu.
 Prints the slab's centre-of-mass height above the lowest ground point and the frictionless bound
 sqrt(2 g h) on its speed, the speed against time for each mu, and, with --run, the run's
-`slab_speed` beside it. README "Slope-scale runs" uses it for scenes/slope3d.toml.
+`slab_speed` beside it. docs/slope-scale.md uses it for scenes/slope3d.toml.
 What-ifs: --x-range LO HI releases only the slab between x = LO and HI (a release of part of the
 slope); --profile-power N replaces the ground by y = H (1 - x/L)^N through the profile's own
 drop H and length L (to its lowest point; flat beyond): N = 2 is the parabola of slope3d, a larger

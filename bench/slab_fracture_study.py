@@ -233,7 +233,7 @@ VARIANTS = {
     "snowman-weak110": (0.05, EARLY_REST + ["material.weak.density=110"],
                         "the snowman on a 110 kg/m^3 weak layer"),
     # One difference each from the 3D slope's plane-strain cut (bench/slope3d_cut.toml), whose
-    # slab does not break within 1 m behind the running crack (README, Known limitations): its 8
+    # slab does not break within 1 m behind the running crack (docs/limitations.md): its 8
     # particles per cell, its 0.3 m weak layer (alpha 500, the crack band's) and its slab up to
     # 0.5 m deep. A thicker layer or slab lifts the snowman by the 0.1 m added, along the normal.
     "ppc8": (0.05, cut("ppc8"), "8 particles per cell (the 3D slope's cut)"),

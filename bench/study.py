@@ -306,7 +306,7 @@ def wave_speed(metrics):
 
 # V7: Lube et al. (2005) planar collapse, aspect ratio a = H0 / L0 = 1: a 0.1 m square of
 # cohesionless Mohr-Coulomb sand (mu(I), below) against a slip wall at x = 0 on a sticky floor,
-# as in README's first look. Law: (L_inf - L0) / L0 = 1.2 a for a < 1.8. L_inf is the 99th
+# as in docs/validation.md's V7 case. Law: (L_inf - L0) / L0 = 1.2 a for a < 1.8. L_inf is the 99th
 # percentile of the deposit's mass along x, from the last frame's density volume (nodal mass
 # spread by the B-spline, so a fraction of a cell farther out than the particles).
 # E = 1 MPa keeps rho g H0 / E at 1.5e-3 (rigid enough) with a time step we can afford.
@@ -315,7 +315,7 @@ COLUMN_L0, COLUMN_ASPECT = 0.1, 1.0
 
 def column_law(aspect):
     """validation.md V7: 1.2 a for a < 1.8, 1.9 a^(2/3) for a > 2.8; between the two (a = 2) the
-    large-a branch, as README's V7 table (1.2 a would be 2.4 at a = 2)."""
+    large-a branch, as the V7 rows of docs/validation.md (1.2 a would be 2.4 at a = 2)."""
     return 1.2 * aspect if aspect < 1.8 else 1.9 * aspect ** (2.0 / 3.0)
 
 
@@ -328,7 +328,7 @@ SLICE_ASPECTS = (0.5, 1.0, 2.0, 4.0)
 SLICE_ASPECT_DX = 0.005
 
 
-# The column's friction: mu(I) fitted to Lube's law at dx 0.005 (README, Validation: V7), from
+# The column's friction: mu(I) fitted to Lube's law at dx 0.005 (docs/validation.md: V7), from
 # 15 degrees at rest to 55 at large inertial number, grains of 1 cm. With a constant friction
 # angle (30 degrees until 2026-12-03) the runout grew with every halving of dx.
 COLUMN_FRICTION = """friction_angle = 15.0
@@ -637,7 +637,7 @@ def slice_study(args, out_dir):
 # the large-a runout exponent 0.9 +- 0.1 in wide channels and 0.65 +- 0.05 in narrow slots; Lube's
 # law has 2/3. The study runs the V7 column (COLUMN_FRICTION, fitted in 2D without walls) in 2D and
 # between Coulomb side walls: (channel width m, wall coefficient), width 0 = 2D. dx 0.01: the a = 1
-# runout is within 1.2 % of dx 0.005's (README, V7); the a = 8 channel of 10 cm costs ~4 min
+# runout is within 1.2 % of dx 0.005's (docs/validation.md, V7); the a = 8 channel of 10 cm costs ~4 min
 # on 2 cores, the whole study ~25 min.
 CHANNEL_ASPECTS = (0.5, 1.0, 2.0, 4.0, 8.0)
 CHANNEL_WALLS = ((0.0, None), (0.1, 0.3), (0.05, 0.2), (0.1, 0.5), (0.05, 0.4), (0.03, 0.4))

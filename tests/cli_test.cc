@@ -468,7 +468,7 @@ TEST_CASE("firn check prints each material's values and where each came from",
                 "van Herwijnen et al\\. 2016 \\(J\\. Glaciol\\. 62:997\\)"));
     CHECK(shows("initial_p0 +2\\.244e\\+04 Pa +table: p0 on the ellipse \\(beta, M\\) from "
                 "sigma_t = 240 kPa \\(rho/917\\)\\^2\\.44, Sigrist 2006 \\(ETH thesis\\)"));
-    CHECK(shows("hardening +0\\.5 +table: Firn PST calibration, README Snow"));
+    CHECK(shows("hardening +0\\.5 +table: Firn PST calibration, docs/snow.md"));
     CHECK(o.out.find("  material \"weak\" (weak_layer):\n") != std::string::npos);
     CHECK(shows("density +100 kg/m\\^3 +default"));
     CHECK(shows("initial_p0 +6900 Pa +table: .*Firn PST calibration at 100 kg/m\\^3.*"));
@@ -565,14 +565,15 @@ TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame"
         CHECK(p.out.empty());
         CHECK(p.err.find('\r') == std::string::npos); // stderr is a file, not a TTY
         const std::vector<std::string> lines = split(p.err, '\n');
-        REQUIRE(lines.size() == 5);
-        CHECK(lines[0].rfind("settled under gravity in ", 0) == 0);
+        REQUIRE(lines.size() == 6);
+        CHECK(std::regex_match(lines[0], std::regex("seeded [0-9]+ particles in [0-9.]+ s")));
+        CHECK(lines[1].rfind("settled under gravity in ", 0) == 0);
         for (int k = 1; k <= 3; ++k) {
-            INFO(lines[k]);
-            CHECK(lines[k].rfind("frame " + std::to_string(k) + "/3 ", 0) == 0);
+            INFO(lines[k + 1]);
+            CHECK(lines[k + 1].rfind("frame " + std::to_string(k) + "/3 ", 0) == 0);
         }
-        CHECK(lines[4].rfind("firn: 4 frames, ", 0) == 0);
-        CHECK(lines[4].find(out1) != std::string::npos);
+        CHECK(lines[5].rfind("firn: 4 frames, ", 0) == 0);
+        CHECK(lines[5].find(out1) != std::string::npos);
 
         // The thread count does not change the results: same metrics but the wall clock.
         const auto rows1 = checkMetrics(out1 + "/metrics.csv", 4);
@@ -888,7 +889,7 @@ TEST_CASE("firn check names the slip surface, its bodies and its friction", "[cl
 
 TEST_CASE("firn check notes a weak layer fewer than 4 cells thick", "[cli]") {
     // bench/slab_drag.toml: a 0.2 m weak layer at dx 0.05 (4 cells: no note) and at dx 0.1
-    // (2 cells: the crack's speed depends on the layer's softening there, README).
+    // (2 cells: the crack's speed depends on the layer's softening there, docs/slope-scale.md).
     TempDir dir("firn-cli-check-cells");
     const std::string scene = std::string(FIRN_SOURCE_DIR) + "/bench/slab_drag.toml";
     const Outcome fine = runFirn({"check", scene}, dir);

@@ -72,7 +72,7 @@ TEST_CASE("The ellipse's uniaxial tensile strength lies on the yield surface",
                                float(beta)) == Approx(0.0).margin(1e-5 * p0 * p0));
         }
     }
-    // Slab numbers of the README: 0.4488 p0 for beta 0.5, M 1; the shipped slab's 26.9 kPa.
+    // Slab numbers of docs/snow.md: 0.4488 p0 for beta 0.5, M 1; the shipped slab's 26.9 kPa.
     CHECK(uniaxialTensileStrength(1.0, 0.5, 1.0) == Approx(0.448789).epsilon(1e-5));
     CHECK(uniaxialTensileStrength(6.0e4, 0.5, 1.0) == Approx(26927.3).epsilon(1e-5));
     // As M grows the uniaxial state reaches the tensile tip: sigma -> 3 beta p0.
@@ -145,12 +145,12 @@ TEST_CASE("Every table value names its source", "[snow_parameters]") {
     CHECK(contains(slab.initialP0.source, "ellipse"));
     for (const TableValue* v :
          {&slab.poissonRatio, &slab.criticalStateSlope, &slab.cohesionRatio, &slab.hardening})
-        CHECK(v->source == "Firn PST calibration, README Snow");
+        CHECK(v->source == "Firn PST calibration, docs/snow.md");
     const SnowParameterTable weak = weakLayerTable(100.0);
     CHECK(contains(weak.youngsModulus.source, "Firn PST calibration at 100 kg/m^3"));
     CHECK(contains(weak.youngsModulus.source, "van Herwijnen et al. 2016"));
     CHECK(contains(weak.initialP0.source, "Sigrist 2006"));
-    CHECK(weak.softening.source == "Firn PST calibration, README Snow");
+    CHECK(weak.softening.source == "Firn PST calibration, docs/snow.md");
 }
 
 TEST_CASE("The tables' density ranges", "[snow_parameters]") {
@@ -190,7 +190,7 @@ model = "weak_layer"
     CHECK(slab.origins.at("density") == "scene file line 7");
     CHECK(slab.origins.at("youngs_modulus") == "table: " + t.youngsModulus.source);
     CHECK(slab.origins.at("initial_p0") == "table: " + t.initialP0.source);
-    CHECK(slab.origins.at("hardening") == "table: Firn PST calibration, README Snow");
+    CHECK(slab.origins.at("hardening") == "table: Firn PST calibration, docs/snow.md");
 
     // No density: the calibrated weak layer at 100 kg/m^3, its density by default.
     const MaterialDesc& weak = scene.materials[1];

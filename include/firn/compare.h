@@ -28,7 +28,7 @@ struct ToleranceTable {
     std::map<std::string, Tolerance> byName;
     Tolerance fallback;
 
-    /// The documented defaults (README, `firn compare --help`).
+    /// The documented defaults (docs/review.md, `firn compare --help`).
     static ToleranceTable defaults();
     const Tolerance& lookup(const std::string& name) const;
     /// Applies "name=0.05" (relative), "name=abs:0.2" (absolute), or "all=..." (every figure,

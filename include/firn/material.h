@@ -74,7 +74,7 @@ struct CamClayParams {
 };
 
 /// How many cells thick the band is that a weak layer's collapse leaves behind the crack tip
-/// (quadratic B-splines), measured on the PST layer (README "Snow", Resolution): 5.6 cells
+/// (quadratic B-splines), measured on the PST layer (docs/snow.md, Resolution): 5.6 cells
 /// (p10-p90: 4-7) at dx 0.0075, where it is 70 % of the 6 cm layer, and the whole layer at
 /// dx 0.015. The 2-3 cells that soften at the tip itself over-correct: with 3, the flat crack
 /// arrests before the column's end (a_c > 0.65 m at dx 0.0075 against 0.45-0.475 m at 0.015).
@@ -97,7 +97,7 @@ double collapseBandThickness(double layerThickness, double dx);
 /// ratio is (band / alpha at this dx) / (tableSofteningLength / tableSoftening), and `softening`
 /// x ratio gives the table's energy per area. The crack band's coarse side: a layer thicker than
 /// the calibrated one, on a grid that lets the collapse fill it, dissipates more per unit area
-/// (slope2d's 0.2 m layer with alpha 100: 3.3 times; README "Slope-scale runs").
+/// (slope2d's 0.2 m layer with alpha 100: 3.3 times; docs/slope-scale.md).
 double collapseEnergyRatio(double softening, double softeningLength, double layerThickness,
                            double dx, double tableSoftening, double tableSofteningLength);
 

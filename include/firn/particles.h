@@ -40,7 +40,7 @@ struct ParticleSet {
     /// Elastic displacement gradient H = Fe - I (Fe: elastic deformation gradient). Stored
     /// instead of Fe because snow at rest has strains of 1e-4..1e-3 and changes them by 1e-9 a
     /// step: in Fe (entries near 1, float spacing 1.2e-7) those increments round away, biased
-    /// towards the larger ones, and a resting body gains energy every step (README "Validation").
+    /// towards the larger ones, and a resting body gains energy every step (docs/validation.md).
     std::vector<Mat3f> H;
     std::vector<Sym3f> tau;             ///< Kirchhoff stress after the last plasticity pass, Pa
     std::vector<float> mass;            ///< kg (2D: per metre of depth)

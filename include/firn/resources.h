@@ -18,7 +18,7 @@ public:
 };
 
 /// Peak resident memory of a run: what the process holds before seeding (OpenVDB, TBB, the
-/// C++ runtime) plus a cost per particle. Measured (README, Resources): 54-65 MB before
+/// C++ runtime) plus a cost per particle. Measured (docs/long-runs.md, Resources): 54-65 MB before
 /// seeding, 300 bytes per particle over the default 2D scene and the 3D slope (particle arrays
 /// 152 B, grid, transfer scratch, a frame's export); rounded up to leave a margin.
 constexpr double kBaseBytes = 70e6;

@@ -74,7 +74,7 @@ struct GridDesc {
     /// particles' velocity toward its projection on the grid; 1 is PIC.
     int xpicOrder = 2;
     double cfl = 0.4;
-    /// s; none by default: the CFL condition alone sets the step (README, grid.max_dt).
+    /// s; none by default: the CFL condition alone sets the step (docs/reference/scene.md, grid.max_dt).
     double maxDt = std::numeric_limits<double>::infinity();
     double jitter = 0.5; ///< fraction of a sub-cell by which seeds are jittered
     /// Resting snow sleeps: particles of a leaf whose snow, and its neighbours', has stayed below

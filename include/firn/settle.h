@@ -36,6 +36,14 @@ struct SettleReport {
     std::string message;
 };
 
+/// Where settling stands after a step, for a progress line.
+struct SettleProgress {
+    double time = 0.0;          ///< simulated settling time so far, s
+    long long steps = 0;        ///< settling steps so far
+    int kineticResets = 0;      ///< kinetic-energy peaks passed so far
+    double lastPeakRatio = 0.0; ///< the last peak / elastic energy (0 before the first)
+};
+
 /// Settling parameters (SimulationDesc::settle*).
 struct SettleParams {
     double maxTime = 2.0;    ///< s
@@ -43,6 +51,8 @@ struct SettleParams {
     double cfl = 0.4;        ///< CFL number of the settling steps (settlingCfl)
     /// Polled every step: true ends settling early (a signal asked the run to stop).
     std::function<bool()> interrupted;
+    /// Called after every step when set (firn run's progress line throttles it).
+    std::function<void(const SettleProgress&)> progress;
     /// The materials' names, by index, for the overload message ("519 of weak"); a material
     /// without one is named by its number in the scene ("material 2").
     std::vector<std::string> materialNames;

@@ -3,7 +3,7 @@
 // MPM has one velocity field, so a slab resting on a weak layer a few cells thick is tied to the
 // snow under the layer by the kernel (three cells wide) even after the layer has collapsed: the
 // slip is spread over the cells around the layer and the slab is held back by a drag that halves
-// with dx (README "Slope-scale runs"). Multi-material contact (Bardenhagen et al. 2000, J.
+// with dx (docs/slope-scale.md). Multi-material contact (Bardenhagen et al. 2000, J.
 // Comput. Phys.; Bardenhagen et al. 2001, CMES 2:509) gives the bodies above the slip surface
 // their own grid field: each field gets its own mass and momentum in P2G, and its particles read
 // only their own field in G2P. Where both fields meet at a node they move as one (the

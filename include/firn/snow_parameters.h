@@ -1,7 +1,7 @@
 // The snow parameter table: the Cam-Clay parameters of a slab (`model = "snow"`) and a weak
 // layer (`model = "weak_layer"`) as functions of density, each value with its source. A scene
 // may give such a material by its density alone; every key it leaves out comes from here
-// (README "Snow", parameter table). Pure functions, no scene or solver state.
+// (docs/snow.md, parameter table). Pure functions, no scene or solver state.
 #pragma once
 
 #include <string>

@@ -70,13 +70,23 @@ struct World {
 /// and colliders without particles (a resumed run loads its particles from a checkpoint).
 enum class BuildStage { Bare, Seeded, Settled };
 
+/// What buildWorld reports while it works, for a long run's progress; every member is optional.
+struct BuildObserver {
+    /// Polled while settling: true ends settling early (a signal asked the run to stop).
+    std::function<bool()> interrupted;
+    /// The bodies are seeded: how many particles, and the wall time it took, s.
+    std::function<void(std::size_t particles, double seconds)> seeded;
+    /// After every settling step (SettleParams::progress).
+    std::function<void(const SettleProgress&)> settling;
+};
+
 /// Builds, in the scene's local frame (toLocalFrame, firn/gis.h), materials, colliders and seeds
 /// particles from the scene's bodies (deterministic from simulation.seed); with BuildStage::Settled
 /// and simulation.settle, settles the resting bodies under gravity (settleUnderGravity; bodies
-/// seeded with a velocity join afterwards), then applies the saw cuts; `interrupted` (polled while
-/// settling) can end settling early. Throws SceneError for what the scene asks and cannot be built.
+/// seeded with a velocity join afterwards), then applies the saw cuts; `observer` hears how far it
+/// got and can end settling early. Throws SceneError for what the scene asks and cannot be built.
 std::unique_ptr<World> buildWorld(const SceneDesc& scene, BuildStage stage = BuildStage::Settled,
-                                  const std::function<bool()>& interrupted = {});
+                                  const BuildObserver& observer = {});
 
 /// The particles each body will seed, estimated from its shape on a lattice of at most ~2e5
 /// points per body (no particle is made): within a few percent of buildWorld's count for bodies

@@ -2,10 +2,12 @@
 // 3 I/O or resource error, 4 internal error (a bug: please report), 5 `firn compare`: a figure
 // moved beyond its tolerance, 130 interrupted (SIGINT/SIGTERM).
 #include <firn/errors.h>
+#include <firn/output_keys.h>
 #include <firn/report.h>
 #include <firn/resources.h>
 #include <firn/run.h>
 #include <firn/scene.h>
+#include <firn/scene_keys.h>
 
 #include "compare_command.h"
 #include "render_command.h"
@@ -35,6 +37,7 @@ usage:
   firn report OUT_DIR [--times t1,t2,...] [--quiet]
   firn compare RUN_A RUN_B [--out DIR] [--force] [--tolerance name=value ...]
                [--color-by Q] [--size WxH] [more: firn compare --help]
+  firn keys [--markdown]
   firn --help | firn COMMAND --help | firn --version
 
 commands:
@@ -43,10 +46,11 @@ commands:
   render  PNG frames, a contact sheet and a video of a finished run in OUT_DIR/render/
   report  charts of a finished run (failure maps, crack, flow) in OUT_DIR/report/report.html
   compare two runs of one scene side by side (renders, curves, values) in compare.html
+  keys    every scene key with its default, as the manual's scene reference lists them
 
 Exit codes: 0 ok, 1 scene or usage error, 2 simulation unstable, 3 I/O or resource error,
 4 internal error, 5 compare: a figure moved beyond its tolerance, 130 interrupted.
-See README.md for the scene reference.
+The manual (docs/, mkdocs build) has the scene reference: docs/reference/scene.md.
 )";
 
 const char* kRunHelp = R"(usage: firn run SCENE.toml [options]
@@ -101,6 +105,14 @@ options:
                      (default: 4 frames evenly spaced while the crack runs, else over the run)
   --quiet            no progress lines on stderr
   -h, --help         this text
+)";
+
+const char* kKeysHelp = R"(usage: firn keys [--markdown]
+
+Lists every scene key with its default: one line per key (table.key = default). With
+--markdown, the tables of the manual's scene reference (docs/reference/scene.md) and of the
+metrics.csv columns and summary.json keys (docs/reference/outputs.md), each between its marker
+lines as the pages hold them; the tests fail when a page and this output differ.
 )";
 
 struct UsageError {
@@ -281,6 +293,37 @@ int finishRun(const firn::RunResult& r, bool quiet) {
     return 0;
 }
 
+// firn keys [--markdown]: the scene keys as the manual documents them (firn/scene_keys.h).
+int keysCommand(const std::vector<std::string>& args) {
+    bool markdown = false;
+    for (const std::string& a : args) {
+        if (a == "-h" || a == "--help") {
+            std::fputs(kKeysHelp, stdout);
+            return 0;
+        }
+        if (a != "--markdown") throw UsageError{"keys: unknown option '" + a + "'"};
+        markdown = true;
+    }
+    if (markdown) {
+        auto print = [](const std::string& table, const std::string& text) {
+            std::printf("%s\n%s\n%s\n\n", firn::keyTableBegin(table).c_str(), text.c_str(),
+                        firn::kKeyTableEnd);
+        };
+        for (const std::string& section : firn::sceneKeySections())
+            print(section, firn::sceneKeyTable(section));
+        for (const char* file : {"metrics.csv", "summary.json"})
+            print(file, firn::outputKeyTable(file));
+        return 0;
+    }
+    for (const firn::SceneKeyDoc& doc : firn::sceneKeyDocs()) {
+        std::string value = doc.defaultValue; // Markdown: drop the code marks
+        value.erase(std::remove(value.begin(), value.end(), '`'), value.end());
+        for (const std::string& key : firn::keyNames(doc))
+            std::printf("%s.%s = %s\n", doc.section, key.c_str(), value.c_str());
+    }
+    return 0;
+}
+
 } // namespace
 
 int main(int argc, char** argv) {
@@ -323,6 +366,7 @@ int main(int argc, char** argv) {
             }
             return firn::cli::runCompareCommand(c);
         }
+        if (name == "keys") return keysCommand({argv + 2, argv + argc});
         if (name != "run" && name != "check" && name != "report")
             throw UsageError{"unknown command '" + name + "'"};
         const Command c = parseCommand(argc, argv);

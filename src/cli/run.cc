@@ -1,6 +1,7 @@
 #include <firn/checkpoint.h>
 #include <firn/diagnostics.h>
 #include <firn/io.h>
+#include <firn/output_keys.h>
 #include <firn/peak_fields.h>
 #include <firn/resources.h>
 #include <firn/run.h>
@@ -33,8 +34,8 @@ namespace {
 /// A weak layer fewer than 4 cells thick: there the up-slope crack's speed depends on the layer's
 /// `softening` (3 cells: 24 to 69 m/s for alpha 100 to 1000 on bench/slope3d_cut.toml), where at
 /// 4 cells (scenes/default.toml) and 6 (the cut at dx 0.05) alpha 50 and 100 give the same crack
-/// (README "The up-slope crack at dx 0.1"), so `firn check` says so and where to read why. Empty
-/// for other bodies.
+/// (docs/slope-scale.md, "The up-slope crack at dx 0.1"), so `firn check` says so and where to read
+/// why. Empty for other bodies.
 std::string weakLayerResolutionNote(const SceneDesc& scene, const BodyDesc& body) {
     constexpr double kCellsWhereSofteningStopsMattering = 4.0;
     if (!isLayerShape(body.shape) ||
@@ -48,7 +49,7 @@ std::string weakLayerResolutionNote(const SceneDesc& scene, const BodyDesc& body
     std::ostringstream note;
     note << "    note: the weak layer is " << formatNumber(std::round(cells * 10.0) / 10.0)
          << " cells thick; below 4 the crack's speed depends on its `softening` (check against a "
-            "finer dx: README \"The up-slope crack at dx 0.1\")\n";
+            "finer dx: docs/slope-scale.md, \"The up-slope crack at dx 0.1\")\n";
     return note.str();
 }
 
@@ -110,61 +111,56 @@ public:
     void done() {
         if (!mQuiet && mTty) std::fprintf(stderr, "\n");
     }
+    /// Before t = 0: the seeded particles, then settling's steps every few seconds of wall
+    /// time (a large scene settles for many minutes). Ends its updating line itself.
+    BuildObserver observer() {
+        BuildObserver o;
+        o.interrupted = [] { return gStopSignal != 0; };
+        if (mQuiet) return o;
+        o.seeded = [](std::size_t particles, double seconds) {
+            std::fprintf(stderr, "seeded %zu particles in %.1f s\n", particles, seconds);
+        };
+        o.settling = [this, last = Clock::now(),
+                      start = Clock::now()](const SettleProgress& p) mutable {
+            if (secondsSince(last) < (mTty ? 1.0 : 30.0)) return;
+            last = Clock::now();
+            std::fprintf(stderr,
+                         "%ssettling: t=%.4g s  %lld steps  %.1f steps/s  %d kinetic-energy "
+                         "peaks, the last %.2g of the elastic energy (at rest below the "
+                         "tolerance)%s",
+                         mTty ? "\r\033[K" : "", p.time, p.steps, p.steps / secondsSince(start),
+                         p.kineticResets, p.lastPeakRatio, mTty ? "" : "\n");
+            std::fflush(stderr);
+            mOpenLine = mTty;
+        };
+        return o;
+    }
+    /// Ends an updating settling line before other output.
+    void endLine() {
+        if (mOpenLine) std::fprintf(stderr, "\n");
+        mOpenLine = false;
+    }
 
 private:
     bool mQuiet, mTty;
     int mFrames;
+    bool mOpenLine = false;
 };
 
 /// Crack tip and speed from the extent of eta > 0 along x (outputs.md: crack_tip_x, crack_speed).
-const std::vector<std::string> kMetricColumns = {"frame",
-                                                 "time",
-                                                 "steps",
-                                                 "dt",
-                                                 "particles",
-                                                 "active_voxels",
-                                                 "mass",
-                                                 "com_x",
-                                                 "com_y",
-                                                 "com_z",
-                                                 "momentum_x",
-                                                 "momentum_y",
-                                                 "momentum_z",
-                                                 "kinetic_energy",
-                                                 "max_speed",
-                                                 "front_x",
-                                                 "crack_tip_x",
-                                                 "crack_speed",
-                                                 "failed_fraction",
-                                                 "wall_seconds",
-                                                 "elastic_energy",
-                                                 "gravitational_energy",
-                                                 "energy_drift",
-                                                 "crack_tip_min_x",
-                                                 "crack_tip_max_x",
-                                                 "asleep",
-                                                 "slab_fractures",
-                                                 "slab_fractured_fraction",
-                                                 "slab_blocks",
-                                                 "largest_block_mass",
-                                                 "median_block_mass",
-                                                 "outflow_mass",
-                                                 "slab_speed",
-                                                 "collapse_min_x",
-                                                 "collapse_max_x"};
 
 struct RunState {
     RunState(const SceneDesc& sc, World& w, const std::string& outDir)
         : scene(sc)
         , world(w)
         , framesDir(outDir + "/frames")
-        , metrics(outDir + "/metrics.csv", kMetricColumns) {}
+        , metrics(outDir + "/metrics.csv", metricColumns()) {}
     /// A resumed run: metrics.csv keeps the rows of frames 0..frame.
     RunState(const SceneDesc& sc, World& w, const std::string& outDir, int frame)
         : scene(sc)
         , world(w)
         , framesDir(outDir + "/frames")
-        , metrics(outDir + "/metrics.csv", kMetricColumns, std::size_t(frame) + 1) {}
+        , metrics(outDir + "/metrics.csv", metricColumns(), std::size_t(frame) + 1) {}
     const SceneDesc& scene;
     World& world;
     std::string framesDir;
@@ -205,10 +201,13 @@ double inScene(const World& w, int axis, double local) {
 /// settle_message: the box (scene coordinates) and the count of each material by its name.
 void writeSettleOverload(JsonObject& j, const SettleReport& settle, const World& w,
                          const std::vector<MaterialDesc>& materials) {
-    const char* axes[] = {"x", "y", "z"};
+    // Whole names, as the outputs reference lists them (tests/docs_test.cc reads this file).
+    const char* keys[3][2] = {{"settle_overloaded_x_min", "settle_overloaded_x_max"},
+                              {"settle_overloaded_y_min", "settle_overloaded_y_max"},
+                              {"settle_overloaded_z_min", "settle_overloaded_z_max"}};
     for (int a = 0; a < w.dim; ++a) {
-        j.set(std::string("settle_overloaded_") + axes[a] + "_min", settle.overloadedMin[a]);
-        j.set(std::string("settle_overloaded_") + axes[a] + "_max", settle.overloadedMax[a]);
+        j.set(keys[a][0], settle.overloadedMin[a]);
+        j.set(keys[a][1], settle.overloadedMax[a]);
     }
     std::vector<std::string> names;
     for (const MaterialDesc& m : materials) names.push_back(m.name);
@@ -469,7 +468,7 @@ PeakFields makePeakFields(const SceneDesc& scene, const World& world) {
 void writeUnstableSettleSummary(const SceneDesc& scene, RunResult& result, const char* why) {
     result.status = "unstable";
     result.message = std::string("unstable while settling before t = 0: ") + why;
-    MetricsWriter(result.outDir + "/metrics.csv", kMetricColumns); // the header, no rows
+    MetricsWriter(result.outDir + "/metrics.csv", metricColumns()); // the header, no rows
     JsonObject j;
     j.set("scene", scene.path);
     j.set("dimension", scene.simulation.dimension);
@@ -514,12 +513,15 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         removeOldFrames(result.outDir + "/frames");
         removeCheckpoints(checkpointDir);
         writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
+        Progress building(options.quiet, 0);
         try {
-            world = buildWorld(scene, BuildStage::Settled, [] { return gStopSignal != 0; });
+            world = buildWorld(scene, BuildStage::Settled, building.observer());
         } catch (const SimulationError& e) {
+            building.endLine();
             writeUnstableSettleSummary(scene, result, e.what());
             return result;
         }
+        building.endLine();
         if (world->settle.ran && !options.quiet)
             std::fprintf(
                 stderr, "settled under gravity in %.3g s (%lld steps, %.1f s wall)%s%s\n",
@@ -692,7 +694,7 @@ std::string describeCollapseEnergy(const SceneDesc& scene, std::size_t m) {
             out << "    " << std::left << std::setw(30) << "softening for the table's"
                 << std::setw(16) << std::llround(material.softening * ratio(thin))
                 << "gives body \"" << name
-                << "\" the table's collapse energy per area (README Snow, crack band)\n";
+                << "\" the table's collapse energy per area (docs/snow.md, crack band)\n";
     }
     return out.str();
 }

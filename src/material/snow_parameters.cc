@@ -1,4 +1,4 @@
-// The snow parameter table (README "Snow", parameter table). Two published laws of snow against
+// The snow parameter table (docs/snow.md, parameter table). Two published laws of snow against
 // density carry the density dependence, the rest is the calibrated PST set of scenes/pst.toml:
 //
 // - Young's modulus of slabs, van Herwijnen et al. 2016 (J. Glaciol. 62(236):997-1007): a power
@@ -36,7 +36,7 @@ constexpr double kSlabModulusExponent = 2.8;
 constexpr double kIceTensileStrength = 240.0e3; // Pa
 constexpr double kTensileExponent = 2.44;
 
-// The Firn PST calibration (README "Snow"; scenes/pst.toml).
+// The Firn PST calibration (docs/snow.md; scenes/pst.toml).
 constexpr double kSlabPoissonRatio = 0.2;
 constexpr double kSlabCriticalStateSlope = 1.0;
 constexpr double kSlabCohesionRatio = 0.5;
@@ -54,7 +54,7 @@ constexpr double kWeakDynamicCriticalStateSlope = 1.2;
 const DensityRange kSlabDensities{60.0, 500.0};
 const DensityRange kWeakLayerDensities{60.0, 200.0};
 
-const char* const kCalibration = "Firn PST calibration, README Snow";
+const char* const kCalibration = "Firn PST calibration, docs/snow.md";
 
 TableValue calibrated(double value) {
     return {value, kCalibration};
@@ -132,7 +132,7 @@ SnowParameterTable weakLayerTable(double density) {
     t.softening = calibrated(kWeakSoftening);
     t.softeningLength = {kWeakSofteningLength,
                          "the PST layer alpha was calibrated on (its collapse band fills the "
-                         "6 cm at dx >= 0.01); crack band, README Snow"};
+                         "6 cm at dx >= 0.01); crack band, docs/snow.md"};
     t.dynamicCriticalStateSlope = calibrated(kWeakDynamicCriticalStateSlope);
     return t;
 }

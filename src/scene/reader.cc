@@ -327,7 +327,11 @@ void TableReader::finish() const {
             firstNode = &node;
         }
     }
-    if (!first) return;
+    if (!first) {
+        if (mContext.keysRead && !mSection.empty())
+            (*mContext.keysRead)[mSection].insert(mAsked.begin(), mAsked.end());
+        return;
+    }
     const bool isTable = firstNode->is_table() || firstNode->is_array_of_tables();
     failAtKey(*first,
               (isTable ? "unknown table" : "unknown key") + suggestion(first->str(), mAsked));

@@ -11,6 +11,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -19,11 +20,15 @@
 
 namespace firn::scene {
 
+/// The keys each scene table's readers asked for: "grid" -> {"dx", "cfl", ...}.
+using KeyLog = std::map<std::string, std::set<std::string>, std::less<>>;
+
 /// What every reader of one scene shares.
 struct SceneContext {
-    std::string file;   ///< the scene path, as given, for messages
-    std::string folder; ///< the scene's folder, against which relative files are resolved
-    int dimension = 3;  ///< known once [simulation] has been read
+    std::string file;           ///< the scene path, as given, for messages
+    std::string folder;         ///< the scene's folder, against which relative files are resolved
+    int dimension = 3;          ///< known once [simulation] has been read
+    KeyLog* keysRead = nullptr; ///< when set, finish() adds the keys asked for (sceneKeysRead)
 };
 
 /// An interval of accepted numbers; infinite bounds are left out of messages.
@@ -132,8 +137,11 @@ public:
 
     /// Fails if `key` is present: it is a known key that `why` (model "snow") does not use.
     void notApplicable(std::string_view key, const std::string& why);
-    /// Fails at the first key, in file order, that nothing asked for.
+    /// Fails at the first key, in file order, that nothing asked for; then adds the keys asked
+    /// for to the context's keysRead under `section` (logKeysAs), when both are set.
     void finish() const;
+    /// The scene table this reader reads ("grid", "material"), for sceneKeysRead.
+    void logKeysAs(std::string section) { mSection = std::move(section); }
 
 private:
     [[noreturn]] void failAtKey(const toml::key& key, const std::string& message) const;
@@ -146,6 +154,7 @@ private:
     const toml::table& mTable;
     const SceneContext& mContext;
     std::string mPrefix;
+    std::string mSection;
     std::set<std::string, std::less<>> mAsked;
 };
 

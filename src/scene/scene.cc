@@ -2,6 +2,7 @@
 // One small reader per table; every key goes through a TableReader, which checks its type and
 // range and reports any key nobody asked for.
 #include <firn/scene.h>
+#include <firn/scene_keys.h>
 #include <firn/snow_parameters.h>
 
 #include "overrides.h"
@@ -646,20 +647,26 @@ void forEachEntry(TableReader& root, const char* key, bool named, ReadOne readOn
         const std::string label =
             name && !name->get().empty() ? inQuotes(name->get()) : std::to_string(i + 1);
         TableReader entry(*tables[i], root.context(), std::string(key) + " " + label + ": ");
+        entry.logKeysAs(key);
         readOne(entry);
     }
 }
 
-SceneDesc readScene(const toml::table& root, const std::string& path) {
+// The reader of the plain table [key], its keys logged under `key`; nullopt when absent.
+std::optional<TableReader> section(TableReader& root, const char* key) {
+    std::optional<TableReader> t = root.subTable(key, std::string(key) + ".");
+    if (t) t->logKeysAs(key);
+    return t;
+}
+
+SceneDesc readScene(const toml::table& root, const std::string& path, KeyLog* keysRead) {
     SceneDesc scene;
     scene.path = path;
-    SceneContext context{path, std::filesystem::path(path).parent_path().string(), 3};
+    SceneContext context{path, std::filesystem::path(path).parent_path().string(), 3, keysRead};
     TableReader r(root, context, "");
     // [simulation] first, for its dimension; then each table before those that refer to it.
-    if (auto t = r.subTable("simulation", "simulation.")) {
-        readSimulation(*t, scene.simulation, context);
-    }
-    if (auto t = r.subTable("grid", "grid.")) readGrid(*t, scene.grid);
+    if (auto t = section(r, "simulation")) readSimulation(*t, scene.simulation, context);
+    if (auto t = section(r, "grid")) readGrid(*t, scene.grid);
     forEachEntry(r, "material", true, [&](TableReader& entry) {
         scene.materials.push_back(readMaterial(entry, scene.materials));
     });
@@ -672,9 +679,9 @@ SceneDesc readScene(const toml::table& root, const std::string& path) {
     });
     forEachEntry(r, "cut", false,
                  [&](TableReader& entry) { scene.cuts.push_back(readCut(entry, scene.bodies)); });
-    if (auto t = r.subTable("output", "output.")) readOutput(*t, scene.output, scene.terrains);
+    if (auto t = section(r, "output")) readOutput(*t, scene.output, scene.terrains);
     if (scene.output.directory.empty()) scene.output.directory = "out/" + scene.simulation.name;
-    if (auto t = r.subTable("render", "render.")) readRender(*t, scene.render);
+    if (auto t = section(r, "render")) readRender(*t, scene.render);
     r.finish();
     return scene;
 }
@@ -727,7 +734,7 @@ SceneDesc parseScene(const std::string& text, const std::string& path,
                      const std::vector<std::string>& overrides) {
     toml::table root = scene::parseDocument(text, path);
     scene::applyOverrides(root, overrides);
-    SceneDesc desc = scene::readScene(root, path);
+    SceneDesc desc = scene::readScene(root, path, nullptr);
     scene::absoluteTerrainFiles(root, desc);
     scene::dropOverriddenKeys(root, desc);
     // No multi-line or literal strings: toml++ 3.3 writes a string that starts with a newline
@@ -740,12 +747,29 @@ SceneDesc parseScene(const std::string& text, const std::string& path,
     return desc;
 }
 
-SceneDesc loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+namespace scene {
+namespace {
+std::string readSceneText(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
     if (!in) throw SceneError(SourceLoc{path, 0, 0}, "", "cannot open scene file");
     std::ostringstream text;
     text << in.rdbuf();
-    return parseScene(text.str(), path, overrides);
+    return text.str();
+}
+} // namespace
+} // namespace scene
+
+SceneDesc loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+    return parseScene(scene::readSceneText(path), path, overrides);
+}
+
+std::map<std::string, std::set<std::string>>
+sceneKeysRead(const std::string& path, const std::vector<std::string>& overrides) {
+    toml::table root = scene::parseDocument(scene::readSceneText(path), path);
+    scene::applyOverrides(root, overrides);
+    scene::KeyLog log;
+    scene::readScene(root, path, &log);
+    return {log.begin(), log.end()};
 }
 
 std::vector<MaterialParameter> materialParameters(const MaterialDesc& material) {

@@ -158,6 +158,8 @@ SettleReport settleUnderGravity(World& w, const SettleParams& params) {
                                       " s of settling (" + std::to_string(w.steps) +
                                       " steps at CFL " + formatCfl(params.cfl) +
                                       "; a smaller simulation.settle_cfl steps more gently)");
+            if (params.progress)
+                params.progress({w.time, w.steps, report.kineticResets, report.lastPeakRatio});
             const double kinetic = kineticEnergy(w.particles);
             if (kinetic == 0.0) { // nothing moves at all: no load, or exactly in equilibrium
                 report.converged = true;

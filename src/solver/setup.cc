@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <functional>
 #include <iomanip>
@@ -527,7 +528,7 @@ std::vector<double> estimateParticlesPerBody(const SceneDesc& sceneIn) {
 }
 
 std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
-                                  const std::function<bool()>& interrupted) {
+                                  const BuildObserver& observer) {
     const SceneDesc scene = toLocalFrame(sceneIn); // a far-off DEM's snow next to 0
     auto world = std::make_unique<World>();
     World& w = *world;
@@ -558,7 +559,12 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
     w.particles.dim = w.dim;
     w.particles.dx = w.dx;
     if (stage == BuildStage::Bare) return world;
+    const auto seeding = std::chrono::steady_clock::now();
     seedBodies(scene, w);
+    if (observer.seeded)
+        observer.seeded(
+            w.particles.size(),
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - seeding).count());
     for (std::size_t i = 0; i < w.particles.size(); ++i) {
         const Material& m = w.materials[w.particles.material[i]];
         w.maxWaveSpeed = std::max(w.maxWaveSpeed, m.pWaveSpeed());
@@ -568,8 +574,12 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
         ParticleSet moving = w.particles.extractFlagged(kFlagOutsideSettling);
         w.particles.bucketByLeaf();
         const double cfl = settlingCfl(scene.simulation.settleCfl, scene.grid.cfl);
-        SettleParams params{
-            scene.simulation.settleMaxTime, scene.simulation.settleTolerance, cfl, interrupted, {}};
+        SettleParams params{scene.simulation.settleMaxTime,
+                            scene.simulation.settleTolerance,
+                            cfl,
+                            observer.interrupted,
+                            observer.settling,
+                            {}};
         for (const MaterialDesc& m : scene.materials) params.materialNames.push_back(m.name);
         w.settle = settleUnderGravity(w, params);
         w.particles.append(std::move(moving));
