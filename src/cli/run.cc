@@ -113,23 +113,22 @@ public:
     }
     /// Before t = 0: the seeded particles, then settling's steps every few seconds of wall
     /// time (a large scene settles for many minutes). Ends its updating line itself.
-    BuildObserver observer() {
+    BuildObserver observer(double tolerance) {
         BuildObserver o;
         o.interrupted = [] { return gStopSignal != 0; };
         if (mQuiet) return o;
         o.seeded = [](std::size_t particles, double seconds) {
             std::fprintf(stderr, "seeded %zu particles in %.1f s\n", particles, seconds);
         };
-        o.settling = [this, last = Clock::now(),
+        o.settling = [this, tolerance, last = Clock::now(),
                       start = Clock::now()](const SettleProgress& p) mutable {
             if (secondsSince(last) < (mTty ? 1.0 : 30.0)) return;
             last = Clock::now();
             std::fprintf(stderr,
                          "%ssettling: t=%.4g s  %lld steps  %.1f steps/s  %d kinetic-energy "
-                         "peaks, the last %.2g of the elastic energy (at rest below the "
-                         "tolerance)%s",
+                         "peaks, the last %.2g of the elastic energy (at rest below %.2g)%s",
                          mTty ? "\r\033[K" : "", p.time, p.steps, p.steps / secondsSince(start),
-                         p.kineticResets, p.lastPeakRatio, mTty ? "" : "\n");
+                         p.kineticResets, p.lastPeakRatio, tolerance, mTty ? "" : "\n");
             std::fflush(stderr);
             mOpenLine = mTty;
         };
@@ -515,7 +514,8 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
         Progress building(options.quiet, 0);
         try {
-            world = buildWorld(scene, BuildStage::Settled, building.observer());
+            world = buildWorld(scene, BuildStage::Settled,
+                               building.observer(scene.simulation.settleTolerance));
         } catch (const SimulationError& e) {
             building.endLine();
             writeUnstableSettleSummary(scene, result, e.what());
