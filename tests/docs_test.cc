@@ -11,6 +11,8 @@
 #include <fstream>
 #include <regex>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 using namespace firn;
 
@@ -46,33 +48,35 @@ std::size_t generatedTables(const std::string& page) {
     return tables;
 }
 
+// Every generated table of the page at docs/`relative` equals the code's, and the page has no
+// other generated table.
+void checkGeneratedTables(const std::string& relative,
+                          const std::vector<std::pair<std::string, std::string>>& tables) {
+    const std::string page = readText(kSource / "docs" / relative);
+    for (const auto& [name, table] : tables) {
+        INFO("docs/" << relative << ", table [" << name
+                     << "]: run tests/docs/update_key_tables.py");
+        bool found = false;
+        const std::string onPage = tableOnPage(page, name, found);
+        REQUIRE(found);
+        CHECK(onPage == table);
+    }
+    CHECK(generatedTables(page) == tables.size()); // none the code does not know
+}
+
 } // namespace
 
 TEST_CASE("The manual's scene reference holds the tables firn keys prints", "[docs]") {
-    const std::filesystem::path pagePath = kSource / "docs" / "reference" / "scene.md";
-    const std::string page = readText(pagePath);
-    for (const std::string& section : sceneKeySections()) {
-        INFO("docs/reference/scene.md, table [" << section
-                                                << "]: run tests/docs/update_key_tables.py");
-        bool found = false;
-        const std::string onPage = tableOnPage(page, section, found);
-        REQUIRE(found);
-        CHECK(onPage == sceneKeyTable(section));
-    }
-    CHECK(generatedTables(page) == sceneKeySections().size()); // none the code does not know
+    std::vector<std::pair<std::string, std::string>> tables;
+    for (const std::string& section : sceneKeySections())
+        tables.emplace_back(section, sceneKeyTable(section));
+    checkGeneratedTables("reference/scene.md", tables);
 }
 
 TEST_CASE("The manual's outputs reference holds the tables firn keys prints", "[docs]") {
-    const std::string page = readText(kSource / "docs" / "reference" / "outputs.md");
-    for (const char* file : {"metrics.csv", "summary.json"}) {
-        INFO("docs/reference/outputs.md, table [" << file
-                                                  << "]: run tests/docs/update_key_tables.py");
-        bool found = false;
-        const std::string onPage = tableOnPage(page, file, found);
-        REQUIRE(found);
-        CHECK(onPage == outputKeyTable(file));
-    }
-    CHECK(generatedTables(page) == 2);
+    checkGeneratedTables("reference/outputs.md",
+                         {{"metrics.csv", outputKeyTable("metrics.csv")},
+                          {"summary.json", outputKeyTable("summary.json")}});
 }
 
 TEST_CASE("The outputs reference documents exactly the summary keys the run writes", "[docs]") {
