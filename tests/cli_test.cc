@@ -537,6 +537,7 @@ TEST_CASE("A tiny run writes scene.toml and metrics and summary and every frame"
     CHECK(jsonValue(json, "frames") == "4"); // 0.1 s at 30 frames/s, plus frame 0
     CHECK(jsonValue(json, "threads") == "2");
     CHECK(std::stod(jsonValue(json, "end_time")) == Approx(0.1));
+    CHECK(jsonValue(json, "stop_reason") == "\"end_time\""); // a resting box never released
     CHECK(std::stod(jsonValue(json, "mass_initial")) == Approx(125.0)); // 0.5 m^2 * 250 kg/m^3
     CHECK(std::stod(jsonValue(json, "mass_final")) == Approx(125.0));
     CHECK(std::stol(jsonValue(json, "steps")) > 0);
@@ -802,7 +803,61 @@ velocity = [4.0, 0.0]
     CHECK(std::stoi(jsonValue(json, "particles")) == 60); // the resting block's 0.15 m^2
     const std::string metrics = slurp(out + "/metrics.csv");
     CHECK(metrics.rfind("outflow_mass") != std::string::npos);
-    CHECK(std::stoi(jsonValue(json, "frames")) == 21);
+    // With the slider gone nothing moves: the run ends at rest (simulation.stop_at_rest).
+    CHECK(jsonValue(json, "stop_reason") == "\"at_rest\"");
+    CHECK(std::stoi(jsonValue(json, "frames")) < 21);
+}
+
+TEST_CASE("A run ends itself once the flow is at rest, with the last frame and the summary",
+          "[cli][hazard]") {
+    TempDir dir("firn-cli-rest");
+    // A granular box pushed at 2 m/s along a floor with Coulomb friction 0.5: the floor stops its
+    // base within 2 / (0.5 g) = 0.41 s, and the box spreads and comes to rest, far before the
+    // 3 s end time.
+    const std::string scene = dir.path() + "/rest.toml";
+    std::string text = kTiny;
+    text.replace(text.find("end_time = 0.1"), 14, "end_time = 3.0");
+    text.replace(text.find("frame_rate = 30"), 15, "frame_rate = 20");
+    text += "velocity = [2.0, 0.0]\n";
+    text.replace(text.find("normal = [0.0, 1.0]\n"), 20, "normal = [0.0, 1.0]\nfriction = 0.5\n");
+    writeText(scene, text);
+    const std::string out = dir.path() + "/out";
+    const Outcome o = runFirn({"run", scene, "--out", out}, dir);
+    INFO(o.err);
+    REQUIRE(o.code == 0);
+    const std::string json = slurp(out + "/summary.json");
+    CHECK(jsonValue(json, "status") == "\"ok\"");
+    CHECK(jsonValue(json, "stop_reason") == "\"at_rest\"");
+    const double end = std::stod(jsonValue(json, "end_time"));
+    CHECK(end > 0.4); // not before the base can have stopped
+    CHECK(end < 1.5); // half the end time: the stop saved at least that
+    CHECK(std::stod(jsonValue(json, "rest_energy_ratio")) < 0.01);
+    // The last frame is the stopping time's, on the frame grid; metrics have a row per frame.
+    const int frames = std::stoi(jsonValue(json, "frames"));
+    CHECK(frames == int(std::lround(end * 20.0)) + 1);
+    checkMetrics(out + "/metrics.csv", frames);
+    checkFrames(out, frames);
+    CHECK(o.err.find("at rest at t=") != std::string::npos);
+    CHECK(o.err.find("of peak (stops < 1 %)") != std::string::npos);
+
+    SECTION("with stop_at_rest = false it runs to the end time") {
+        const std::string out1 = dir.path() + "/out1";
+        const Outcome p = runFirn(
+            {"run", scene, "--out", out1, "--quiet", "--set", "simulation.stop_at_rest=false"},
+            dir);
+        REQUIRE(p.code == 0);
+        const std::string json1 = slurp(out1 + "/summary.json");
+        CHECK(jsonValue(json1, "stop_reason") == "\"end_time\"");
+        CHECK(std::stod(jsonValue(json1, "end_time")) == Approx(3.0));
+        CHECK(jsonValue(json1, "frames") == "61");
+    }
+    SECTION("rest_energy_fraction needs stop_at_rest") {
+        const Outcome p = runFirn({"check", scene, "--set", "simulation.stop_at_rest=false",
+                                   "--set", "simulation.rest_energy_fraction=0.05"},
+                                  dir);
+        CHECK(p.code == 1);
+        CHECK(p.err.find("rest_energy_fraction") != std::string::npos);
+    }
 }
 
 TEST_CASE("A file-size limit mid-run exits 3, keeps the frames written and says why", "[cli]") {

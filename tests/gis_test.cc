@@ -377,6 +377,22 @@ TEST_CASE("GIS scene keys: polygon bodies, nodata and rasters are checked where 
         dir.path() + "/bed.toml", {"terrain.bed.friction=0.25", "terrain.bed.turbulence=3000.0"});
     CHECK(calibrated.terrains[0].friction == 0.25);
     CHECK(calibrated.terrains[0].turbulence == 3000.0);
+    // samosAT: AvaFrame's calibration by default, its coefficients only with it, xi not.
+    REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bed.toml", {"terrain.bed.boundary=\"samosat\""}),
+                        Catch::Contains("terrain \"bed\": turbulence") &&
+                            Catch::Contains("boundary \"samosat\""));
+    REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bed.toml", {"terrain.bed.samosat_b=4.0"}),
+                        Catch::Contains("terrain \"bed\": samosat_b") &&
+                            Catch::Contains("boundary \"voellmy\""));
+    text.replace(text.find("turbulence = 1000.0\n"), 20, "");
+    std::ofstream(dir.path() + "/samosat.toml") << text;
+    const SceneDesc samosat =
+        loadScene(dir.path() + "/samosat.toml",
+                  {"terrain.bed.boundary=\"samosat\"", "terrain.bed.samosat_r=0.1"});
+    CHECK(samosat.terrains[0].boundary == Boundary::SamosAT);
+    CHECK(samosat.terrains[0].samosatR == 0.1);
+    CHECK(samosat.terrains[0].samosatRs0 == 0.222);
+    CHECK(samosat.terrains[0].friction == 0.4); // the file's, not the default 0.155
     REQUIRE_THROWS_WITH(loadScene(dir.path() + "/bed.toml", {"terrain.bed.turbulence=-1.0"}),
                         Catch::Contains("terrain \"bed\": turbulence"));
     REQUIRE_THROWS_WITH(loadScene(path, {"body.release.x_range=[0.0, 1.0]"}),

@@ -671,3 +671,17 @@ TEST_CASE("XPIC's order is an integer from 1 to 16, 2 by default", "[scene][erro
     CHECK(errorOf("[grid]\nxpic_order = 0\n") ==
           "scenes/test.toml:2:14: error: grid.xpic_order: must be in [1, 16], got 0");
 }
+
+TEST_CASE("boundary = \"samosat\" takes AvaFrame's mu 0.155 when the scene gives none",
+          "[scene][samosat]") {
+    const std::string terrain =
+        "\n[[terrain]]\nshape = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 1, 0]\n"
+        "boundary = \"samosat\"\n";
+    const SceneDesc scene = parseScene(kMinimal + terrain + "samosat_tau0 = 500.0\n", kPath);
+    CHECK(scene.terrains[0].friction == 0.155);
+    CHECK(scene.terrains[0].samosatTau0 == 500.0);
+    CHECK(scene.terrains[0].samosatKappa == 0.43);
+    CHECK(scene.terrains[0].samosatB == 4.13);
+    const std::string error = errorOf(kMinimal + terrain + "samosat_tau0 = -1.0\n");
+    CHECK_THAT(error, Catch::Contains("samosat_tau0") && Catch::Contains(">= 0"));
+}

@@ -1,11 +1,13 @@
 // Helpers shared by the tests: scenes from text, worlds run to a time, temporary folders.
 #pragma once
 
+#include <firn/diagnostics.h>
 #include <firn/scene.h>
 #include <firn/solver.h>
 
 #include <Eigen/Dense>
 
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -51,6 +53,29 @@ inline SceneDesc sceneFromText(const std::string& text, const std::string& name 
 inline void advanceTo(World& world, double endTime) {
     while (world.time < endTime - 1e-12)
         step(world, std::min(stableTimeStep(world), endTime - world.time));
+}
+
+/// The bed-law tests' inclined plane (2D, at dx): a 4 m x 1 m elastic slab (300 kg/m^3,
+/// E 3e5 Pa) resting on the plane y = 0 under gravity tilted by `slopeDeg`, the plane's
+/// [[terrain]] table ending with `bedKeys` (its boundary and the law's coefficients).
+inline std::unique_ptr<World> slabOnTiltedBed(const std::string& name, const std::string& bedKeys,
+                                              double slopeDeg, double dx) {
+    const double g = 9.81, th = slopeDeg * 3.14159265358979323846 / 180.0;
+    std::string text =
+        "[simulation]\nname = \"" + name + "\"\ndimension = 2\nend_time = 5.0\ngravity = [" +
+        std::to_string(g * std::sin(th)) + ", " + std::to_string(-g * std::cos(th)) + "]\n";
+    text += "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n" + bedKeys;
+    text += "[[material]]\nname = \"slab\"\nmodel = \"elastic\"\ndensity = 300.0\n"
+            "youngs_modulus = 3.0e5\npoisson_ratio = 0.3\n";
+    text += "[[body]]\nmaterial = \"slab\"\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [4.0, 1.0]\n";
+    text += "[grid]\ndx = " + std::to_string(dx) + "\nparticles_per_cell = 4\nsleep = false\n";
+    return buildWorld(sceneFromText(text, name));
+}
+
+/// The world's mean velocity along x, m/s.
+inline double meanSpeedX(const World& w) {
+    const FrameDiagnostics d = computeDiagnostics(w);
+    return d.momentum[0] / d.mass;
 }
 
 /// Least-squares fit s(t) = s0 + v0 t + a/2 t^2 of a path sampled at times t; returns a.

@@ -16,6 +16,31 @@ namespace firn {
 /// node exactly on a plane can land one ulp outside; this tolerance (of dx) keeps it in contact.
 constexpr float kContactTolerance = 1e-4f;
 
+/// The part of a bed law that acts on the particles of the flow over the bed, spread over the
+/// column's depth (applyBasalDrag, firn/solver.h); the law's Coulomb part mu sigma_b acts at the
+/// grid's contact nodes (Collider::applyBoundary). A pure function of the flow's state.
+struct BasalDrag {
+    Boundary law = Boundary::Friction; ///< Voellmy or SamosAT; the others have no drag
+    float xi = 0.f;                    ///< Voellmy's turbulent friction, m/s^2
+    float mu = 0.f;                    ///< samosAT's Coulomb coefficient
+    float tau0 = 0.f;                  ///< samosAT's minimum shear stress, Pa
+    float rs0 = 0.222f, kappa = 0.43f, roughness = 0.05f, b = 4.13f; ///< samosAT (R in m)
+
+    bool active() const { return law == Boundary::Voellmy || law == Boundary::SamosAT; }
+    /// The factor the tangential velocity (speed u, m/s) of a particle is multiplied by over dt,
+    /// in a column of snow of thickness h (normal to the bed, m) and density rho (kg/m^3) under
+    /// gravity g (m/s^2) whose component normal to the bed is gNormal. Each term decelerates the
+    /// column by its basal shear stress over rho h:
+    /// - Voellmy: rho g u^2 / xi, implicit: u' = u / (1 + g u dt / (xi h)) (RAMMS);
+    /// - samosAT (Sampl and Zwinger 2004; AvaFrame com1DFA's default): tau = tau0 +
+    ///   mu (1 + Rs0 / (Rs0 + Rs)) sigma_b + rho u^2 / (ln(h / R) / kappa + B)^2 with
+    ///   sigma_b = rho gNormal h and Rs = rho u^2 / sigma_b; ln(h / R) no less than 0 (AvaFrame).
+    ///   The turbulent term is implicit as Voellmy's, then the terms beyond mu sigma_b (tau0, and
+    ///   mu Rs0 / (Rs0 + Rs) sigma_b: twice the friction at rest, mu at speed) take at most the
+    ///   speed that is left: they stop a particle, never reverse it.
+    float speedScale(float u, float h, float rho, float g, float gNormal, float dt) const;
+};
+
 class Collider {
 public:
     /// Throws SceneError for shapes that cannot be built (an unreadable heightfield). A
@@ -39,13 +64,13 @@ public:
 
     /// Grid velocity after the boundary condition at a node inside the collider with outward
     /// normal n: separating motion is free; approaching motion loses its normal part and, for
-    /// friction and voellmy, the tangential part shrinks by mu |v_n| (Coulomb) or stops.
-    /// Voellmy's turbulent part acts on particles (applyBasalDrag, firn/solver.h).
+    /// friction, voellmy and samosat, the tangential part shrinks by mu |v_n| (Coulomb) or
+    /// stops. The rest of voellmy and samosat acts on particles (BasalDrag).
     Vec3f applyBoundary(const Vec3f& v, const Vec3f& n) const;
 
     Boundary boundary() const { return mBoundary; }
-    /// Voellmy's turbulent friction xi, m/s^2; 0 for the other boundaries (no basal drag).
-    float turbulence() const { return mBoundary == Boundary::Voellmy ? mTurbulence : 0.f; }
+    /// What the bed law does to the flow's particles (inactive but for voellmy and samosat).
+    const BasalDrag& basalDrag() const { return mDrag; }
     /// The DEM of a heightfield collider (in the simulation's frame), else null.
     const Heightfield* heightfield() const { return mHeightfield.get(); }
     /// True for ground that carries weight under `gravity`: profiles and heightfields, and
@@ -57,6 +82,7 @@ public:
     Collider heldAtRest() const {
         Collider c = *this;
         if (mBoundary != Boundary::Sticky) c.mBoundary = Boundary::Sticky, c.mHeldAtRest = true;
+        c.mDrag.law = Boundary::Sticky; // held: no basal drag either
         return c;
     }
     /// True for a sticky collider whose inside nodes mirror the outside (firn/sticky_walls.h);
@@ -68,7 +94,7 @@ private:
     Boundary mBoundary = Boundary::Friction;
     bool mHeldAtRest = false; ///< sticky by zeroed nodes (heldAtRest)
     float mFriction = 0.4f;
-    float mTurbulence = 2000.f;
+    BasalDrag mDrag;
     int mDim = 3;
     Vec3f mPoint = Vec3f::Zero();
     Vec3f mNormal = Vec3f::UnitY();

@@ -19,7 +19,7 @@ using Vec3d = std::array<double, 3>;
 enum class Transfer { Apic, Pic, Flip, Xpic };
 enum class MaterialModel { Elastic, Snow, WeakLayer, Granular };
 enum class TerrainShape { Plane, Profile, Heightfield };
-enum class Boundary { Friction, Slip, Sticky, Voellmy };
+enum class Boundary { Friction, Slip, Sticky, Voellmy, SamosAT };
 /// How a saw cut is made: before the snowpack settles (a field saw takes seconds: the overhang
 /// takes its load quasi-statically) or all at once on the settled column (a sudden release whose
 /// dynamic overshoot of the overhang's bending lowers the critical cut length).
@@ -50,6 +50,10 @@ struct SimulationDesc {
     /// CFL number while settling; 0: derived (settlingCfl), the largest the stability map
     /// measured stable for APIC at the scene's particle density.
     double settleCfl = 0.0;
+    /// End the run once the flow has stopped (RestDetector, firn/hazard.h): its kinetic energy
+    /// below restEnergyFraction of its peak, after the centre of mass has moved one cell.
+    bool stopAtRest = true;
+    double restEnergyFraction = 0.01; ///< AvaFrame's stopCrit
     /// The simulated region, m: snow that leaves it (off the edge of a DEM, falling past the
     /// terrain) is removed at the end of the frame and counted as outflow. Unbounded where a
     /// component is infinite (the default: nothing is removed).
@@ -74,7 +78,8 @@ struct GridDesc {
     /// particles' velocity toward its projection on the grid; 1 is PIC.
     int xpicOrder = 2;
     double cfl = 0.4;
-    /// s; none by default: the CFL condition alone sets the step (docs/reference/scene.md, grid.max_dt).
+    /// s; none by default: the CFL condition alone sets the step (docs/reference/scene.md,
+    /// grid.max_dt).
     double maxDt = std::numeric_limits<double>::infinity();
     double jitter = 0.5; ///< fraction of a sub-cell by which seeds are jittered
     /// Resting snow sleeps: particles of a leaf whose snow, and its neighbours', has stayed below
@@ -139,9 +144,18 @@ struct TerrainDesc {
     /// coordinates as it is read; set by toLocalFrame (firn/gis.h), not a scene key.
     Vec3d fileOrigin = {0.0, 0.0, 0.0};
     Boundary boundary = Boundary::Friction;
-    double friction = 0.4; ///< Coulomb coefficient mu (friction and voellmy)
+    /// Coulomb coefficient mu (friction, voellmy and samosat; samosat's default is AvaFrame's
+    /// 0.155, set by the parser when the scene gives none)
+    double friction = 0.4;
     /// voellmy: the turbulent friction coefficient xi, m/s^2 (RAMMS: 1000-4000 for dense flows)
     double turbulence = 2000.0;
+    /// samosat: AvaFrame's standard calibration of the law's other coefficients (Sampl and
+    /// Zwinger 2004; AvaFrame com1DFA, `tau0`, `Rs0`, `kappa`, `R`, `B`)
+    double samosatTau0 = 0.0;   ///< Pa, the minimum shear stress
+    double samosatRs0 = 0.222;  ///< the Coulomb term's speed scale (dimensionless)
+    double samosatKappa = 0.43; ///< the turbulent term's von Karman-like constant
+    double samosatR = 0.05;     ///< m, the turbulent term's roughness length
+    double samosatB = 4.13;     ///< the turbulent term's offset
     SourceLoc loc;
 };
 

@@ -1,5 +1,6 @@
 #include <firn/checkpoint.h>
 #include <firn/diagnostics.h>
+#include <firn/hazard.h>
 #include <firn/io.h>
 #include <firn/output_keys.h>
 #include <firn/peak_fields.h>
@@ -98,15 +99,31 @@ public:
         , mTty(isatty(fileno(stderr)))
         , mFrames(frames) {}
     /// Frame k written, `done` frames and `steps` steps of them by this process (a resumed run
-    /// started later) in `wall` seconds.
-    void frame(int k, int done, double time, std::size_t particles, long long steps, double wall) {
+    /// started later) in `wall` seconds. With stop_at_rest the run may end before the last frame:
+    /// the ETA is then an upper bound, and once the release moves the kinetic energy's share of
+    /// its peak shows how near the stop is.
+    void frame(int k, int done, double time, std::size_t particles, long long steps, double wall,
+               const RestDetector* rest = nullptr, double restFraction = 0.0) {
         if (mQuiet) return;
         const double stepsPerSecond = wall > 0 ? steps / wall : 0.0;
         const double eta = done > 0 ? wall * (mFrames - k) / done : 0.0;
-        std::fprintf(stderr, "%sframe %d/%d  t=%.4g s  %zu particles  %.1f steps/s  ETA %.0f s%s",
-                     mTty ? "\r\033[K" : "", k, mFrames, time, particles, stepsPerSecond, eta,
-                     mTty ? "" : "\n");
+        char restNote[96] = "";
+        if (rest && rest->released())
+            std::snprintf(restNote, sizeof restNote,
+                          "  kinetic energy %.3g %% of peak (stops < %.3g %%)",
+                          100.0 * rest->ratio(), 100.0 * restFraction);
+        std::fprintf(stderr,
+                     "%sframe %d/%d  t=%.4g s  %zu particles  %.1f steps/s  ETA %s%.0f s%s%s",
+                     mTty ? "\r\033[K" : "", k, mFrames, time, particles, stepsPerSecond,
+                     rest ? "<= " : "", eta, restNote, mTty ? "" : "\n");
         std::fflush(stderr);
+    }
+    /// The flow stopped (stop_at_rest) at simulated time t.
+    void stoppedAtRest(double time, double ratio) {
+        if (mQuiet) return;
+        std::fprintf(stderr,
+                     "%sat rest at t=%.4g s (kinetic energy %.3g %% of its peak): run ends\n",
+                     mTty ? "\n" : "", time, 100.0 * ratio);
     }
     void done() {
         if (!mQuiet && mTty) std::fprintf(stderr, "\n");
@@ -153,13 +170,15 @@ struct RunState {
         : scene(sc)
         , world(w)
         , framesDir(outDir + "/frames")
-        , metrics(outDir + "/metrics.csv", metricColumns()) {}
+        , metrics(outDir + "/metrics.csv", metricColumns())
+        , rest(sc.simulation.restEnergyFraction, w.dx) {}
     /// A resumed run: metrics.csv keeps the rows of frames 0..frame.
     RunState(const SceneDesc& sc, World& w, const std::string& outDir, int frame)
         : scene(sc)
         , world(w)
         , framesDir(outDir + "/frames")
-        , metrics(outDir + "/metrics.csv", metricColumns(), std::size_t(frame) + 1) {}
+        , metrics(outDir + "/metrics.csv", metricColumns(), std::size_t(frame) + 1)
+        , rest(sc.simulation.restEnergyFraction, w.dx) {}
     const SceneDesc& scene;
     World& world;
     std::string framesDir;
@@ -175,6 +194,8 @@ struct RunState {
     FrameDiagnostics first, last;
     /// Horizontal length of the centre of mass's path over the frames, m.
     double comPathLength = 0;
+    RestDetector rest; ///< simulation.stop_at_rest
+    std::string stopReason = kStopEndTime;
     PeakFields peaks;       ///< hazard maps on the DEM's grid (empty without a heightfield)
     double peakSeconds = 0; ///< wall time spent sampling them, this process
     Clock::time_point start = Clock::now();
@@ -290,6 +311,7 @@ std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
     save(out, s.first);
     save(out, s.last);
     s.peaks.save(out);
+    s.rest.save(out);
     return out.bytes();
 }
 
@@ -304,6 +326,7 @@ void loadRunState(const std::string& bytes, RunState& s, StabilityWatch& watch) 
     load(in, s.first);
     load(in, s.last);
     s.peaks.load(in);
+    s.rest.load(in);
 }
 
 /// When checkpoints are written: every N frames, every M minutes of wall time, or both.
@@ -434,6 +457,8 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     }
     j.set("status", r.status);
     if (!r.message.empty()) j.set("message", r.message);
+    j.set("stop_reason", s.stopReason);
+    if (s.scene.simulation.stopAtRest) j.set("rest_energy_ratio", s.rest.ratio());
     j.set("checkpoints_written", s.checkpointsWritten);
     j.set("checkpoint_wall_seconds", s.checkpointSeconds);
     if (r.resumedFromFrame >= 0) j.set("resumed_from_frame", r.resumedFromFrame);
@@ -595,6 +620,12 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
             s.last = d;
             writeFrame(s, k, d, &watch);
             ++result.frames;
+            if (s.rest.atRest(d.kineticEnergy, s.comPathLength) && s.scene.simulation.stopAtRest &&
+                k < frames) {
+                s.stopReason = kStopAtRest;
+                progress.stoppedAtRest(world->time, s.rest.ratio());
+                break;
+            }
             if (k < frames && checkpoints.due(k)) {
                 const Clock::time_point t0 = Clock::now();
                 writeCheckpoint(checkpointDir, k,
@@ -605,7 +636,9 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                 s.checkpointSeconds += secondsSince(t0);
             }
             progress.frame(k, k - s.framesAtStart, world->time, world->particles.size(),
-                           world->steps - s.stepsAtStart, secondsSince(s.start));
+                           world->steps - s.stepsAtStart, secondsSince(s.start),
+                           scene.simulation.stopAtRest ? &s.rest : nullptr,
+                           scene.simulation.restEnergyFraction);
         }
     } catch (const IoError& e) {
         progress.done();
@@ -787,6 +820,14 @@ std::string describeScene(const SceneDesc& scene, double maxMemoryBytes) {
             : scene.simulation.gravityRamp > 0
                 ? "gravity ramped over " + formatNumber(scene.simulation.gravityRamp) + " s"
                 : "as seeded, full gravity at t = 0")
+        << "\n"
+        << "  end: "
+        << (scene.simulation.stopAtRest
+                ? "at rest (simulation.stop_at_rest): once the centre of mass has moved " +
+                      formatNumber(world->dx) + " m, the first frame with kinetic energy below " +
+                      formatNumber(100.0 * scene.simulation.restEnergyFraction) +
+                      " % of its peak; else at the end time"
+                : "at the end time (simulation.stop_at_rest = false)")
         << "\n";
     for (const CutDesc& cut : scene.cuts)
         out << "  cut in layer \"" << cut.layer << "\": x in [" << formatNumber(cut.fromX) << ", "

@@ -12,7 +12,14 @@ Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     c.mShape = desc.shape;
     c.mBoundary = desc.boundary;
     c.mFriction = static_cast<float>(desc.friction);
-    c.mTurbulence = static_cast<float>(desc.turbulence);
+    c.mDrag.law = desc.boundary;
+    c.mDrag.xi = static_cast<float>(desc.turbulence);
+    c.mDrag.mu = static_cast<float>(desc.friction);
+    c.mDrag.tau0 = static_cast<float>(desc.samosatTau0);
+    c.mDrag.rs0 = static_cast<float>(desc.samosatRs0);
+    c.mDrag.kappa = static_cast<float>(desc.samosatKappa);
+    c.mDrag.roughness = static_cast<float>(desc.samosatR);
+    c.mDrag.b = static_cast<float>(desc.samosatB);
     c.mDim = dim;
     c.mPoint = Vec3f(float(desc.point[0]), float(desc.point[1]), float(desc.point[2]));
     c.mNormal = Vec3f(float(desc.normal[0]), float(desc.normal[1]), float(desc.normal[2]));
@@ -149,6 +156,17 @@ bool Collider::carriesWeight(const Vec3f& gravity) const {
     if (mShape != TerrainShape::Plane) return true; // a height function: ground
     const float g = gravity.norm();
     return g > 0.f && -mNormal.dot(gravity) > 0.1f * g;
+}
+
+float BasalDrag::speedScale(float u, float h, float rho, float g, float gNormal, float dt) const {
+    if (law == Boundary::Voellmy) return 1.f / (1.f + g * u * dt / (xi * h));
+    if (law != Boundary::SamosAT || !(u > 0.f)) return 1.f;
+    const float k = std::log(std::max(h / roughness, 1.f)) / kappa + b;
+    const float turbulent = u / (1.f + u * dt / (h * k * k));
+    const float sigmaOverRho = std::max(gNormal * h, 1e-6f); // sigma_b / rho, m^2/s^2
+    const float rs = u * u / sigmaOverRho;
+    const float coulombExtra = tau0 / (rho * h) + mu * gNormal * rs0 / (rs0 + rs);
+    return std::max(0.f, turbulent - coulombExtra * dt) / u;
 }
 
 Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const {

@@ -33,7 +33,8 @@ const Named<TerrainShape> kTerrainShapes[] = {{"plane", TerrainShape::Plane},
 const Named<Boundary> kBoundaries[] = {{"friction", Boundary::Friction},
                                        {"slip", Boundary::Slip},
                                        {"sticky", Boundary::Sticky},
-                                       {"voellmy", Boundary::Voellmy}};
+                                       {"voellmy", Boundary::Voellmy},
+                                       {"samosat", Boundary::SamosAT}};
 const Named<Saw> kSaws[] = {{"quasi_static", Saw::QuasiStatic}, {"instant", Saw::Instant}};
 const Named<BodyShape> kBodyShapes[] = {{"box", BodyShape::Box},
                                         {"sphere", BodyShape::Sphere},
@@ -182,6 +183,11 @@ void readSimulation(TableReader& r, SimulationDesc& sim, SceneContext& context) 
     r.real("settle_max_time", sim.settleMaxTime, Range::positive());
     r.real("settle_tolerance", sim.settleTolerance, Range::positive());
     r.real("settle_cfl", sim.settleCfl, Range::openClosed(0.0, 10.0));
+    r.boolean("stop_at_rest", sim.stopAtRest);
+    if (sim.stopAtRest)
+        r.real("rest_energy_fraction", sim.restEnergyFraction, Range::open(0.0, 1.0));
+    else
+        r.notApplicable("rest_energy_fraction", "stop_at_rest = false");
     const bool minGiven = r.vector("domain_min", sim.domainMin);
     const bool maxGiven = r.vector("domain_max", sim.domainMax);
     if (minGiven != maxGiven)
@@ -391,16 +397,31 @@ TerrainDesc readTerrain(TableReader& r, std::vector<TerrainName>& names) {
     }
     rejectOtherShapeKeys(r, terrain.shape, kTerrainShapeKeys, kTerrainShapes);
     r.choice("boundary", terrain.boundary, kBoundaries);
-    if (terrain.boundary == Boundary::Voellmy) {
+    const std::string boundaryName = "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries));
+    if (terrain.boundary == Boundary::Voellmy)
         r.real("turbulence", terrain.turbulence, Range::positive());
-    } else {
-        r.notApplicable("turbulence",
-                        "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries)));
-    }
-    if (terrain.boundary == Boundary::Friction || terrain.boundary == Boundary::Voellmy) {
+    else
+        r.notApplicable("turbulence", boundaryName);
+    const bool samosat = terrain.boundary == Boundary::SamosAT;
+    if (samosat) terrain.friction = 0.155; // AvaFrame's standard samosAT calibration
+    if (terrain.boundary == Boundary::Friction || terrain.boundary == Boundary::Voellmy || samosat)
         r.real("friction", terrain.friction, Range::nonNegative());
-    } else {
-        r.notApplicable("friction", "boundary " + inQuotes(nameOf(terrain.boundary, kBoundaries)));
+    else
+        r.notApplicable("friction", boundaryName);
+    const struct {
+        const char* key;
+        double TerrainDesc::*member;
+        Range range;
+    } samosatKeys[] = {{"samosat_tau0", &TerrainDesc::samosatTau0, Range::nonNegative()},
+                       {"samosat_rs0", &TerrainDesc::samosatRs0, Range::positive()},
+                       {"samosat_kappa", &TerrainDesc::samosatKappa, Range::positive()},
+                       {"samosat_r", &TerrainDesc::samosatR, Range::positive()},
+                       {"samosat_b", &TerrainDesc::samosatB, Range::positive()}};
+    for (const auto& k : samosatKeys) {
+        if (samosat)
+            r.real(k.key, terrain.*k.member, k.range);
+        else
+            r.notApplicable(k.key, boundaryName);
     }
     r.finish();
     return terrain;

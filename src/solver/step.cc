@@ -197,9 +197,9 @@ void applyBasalDrag(World& world, float dt) {
     const float g = world.gravity.norm();
     const Collider* bed = nullptr;
     for (const Collider& c : world.colliders)
-        if (c.turbulence() > 0.f) bed = &c;
+        if (c.basalDrag().active()) bed = &c;
     if (!bed || g <= 0.f) return;
-    const float xi = bed->turbulence();
+    const BasalDrag& drag = bed->basalDrag();
     ParticleSet& ps = world.particles;
     const float dx = world.dx;
     const bool is3d = world.dim == 3;
@@ -229,8 +229,10 @@ void applyBasalDrag(World& world, float dt) {
             const float h = float(c.volume / area) * std::max(n[1], 0.05f);
             Vec3f& v = ps.v[i];
             const Vec3f vt = v - v.dot(n) * n;
-            const float u = vt.norm();
-            v -= vt * (1.f - 1.f / (1.f + g * u * dt / (xi * h)));
+            const float scale =
+                drag.speedScale(vt.norm(), h, world.materials[ps.material[i]].density, g,
+                                std::max(-world.gravity.dot(n), 0.f), dt);
+            v -= vt * (1.f - scale);
         }
     });
 }

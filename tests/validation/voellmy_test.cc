@@ -18,26 +18,11 @@ namespace {
 constexpr double kG = 9.81;
 constexpr double kPi = 3.14159265358979323846;
 
-/// A 4 m x 1 m elastic slab on a flat Voellmy bed under gravity tilted by 30 degrees (2D).
 std::unique_ptr<World> voellmySlab(double mu, double xi, double dx) {
-    const double th = 30.0 * kPi / 180.0;
-    std::string text = "[simulation]\nname = \"voellmy\"\ndimension = 2\nend_time = 3.0\n"
-                       "gravity = [" +
-                       std::to_string(kG * std::sin(th)) + ", " +
-                       std::to_string(-kG * std::cos(th)) + "]\n";
-    text += "[[terrain]]\nshape = \"plane\"\npoint = [0.0, 0.0]\nnormal = [0.0, 1.0]\n"
-            "boundary = \"voellmy\"\nfriction = " +
-            std::to_string(mu) + "\nturbulence = " + std::to_string(xi) + "\n";
-    text += "[[material]]\nname = \"slab\"\nmodel = \"elastic\"\ndensity = 300.0\n"
-            "youngs_modulus = 3.0e5\npoisson_ratio = 0.3\n";
-    text += "[[body]]\nmaterial = \"slab\"\nshape = \"box\"\nmin = [0.0, 0.0]\nmax = [4.0, 1.0]\n";
-    text += "[grid]\ndx = " + std::to_string(dx) + "\nparticles_per_cell = 4\nsleep = false\n";
-    return buildWorld(test::sceneFromText(text, "voellmy"));
-}
-
-double meanSpeedX(const World& w) {
-    const FrameDiagnostics d = computeDiagnostics(w);
-    return d.momentum[0] / d.mass;
+    return test::slabOnTiltedBed("voellmy",
+                                 "boundary = \"voellmy\"\nfriction = " + std::to_string(mu) +
+                                     "\nturbulence = " + std::to_string(xi) + "\n",
+                                 30.0, dx);
 }
 
 } // namespace
@@ -52,9 +37,9 @@ TEST_CASE("Voellmy bed: a slab reaches u = sqrt(xi h (sin th - mu cos th)) at tw
         for (const double dx : {0.1, 0.05}) {
             auto w = voellmySlab(mu, xi, dx);
             test::advanceTo(*w, 1.0);
-            const double u1 = meanSpeedX(*w);
+            const double u1 = test::meanSpeedX(*w);
             test::advanceTo(*w, 3.0);
-            const double u3 = meanSpeedX(*w);
+            const double u3 = test::meanSpeedX(*w);
             INFO("mu " << mu << ", dx " << dx << ": u(1 s) " << u1 << " (law "
                        << uInf * std::tanh(a / uInf) << "), u(3 s) " << u3 << " (u_inf " << uInf
                        << ")");
