@@ -39,6 +39,13 @@ struct BasalDrag {
     ///   mu Rs0 / (Rs0 + Rs) sigma_b: twice the friction at rest, mu at speed) take at most the
     ///   speed that is left: they stop a particle, never reverse it.
     float speedScale(float u, float h, float rho, float g, float gNormal, float dt) const;
+    /// The velocity v after dt over a bed of outward normal n under `gravity`: its tangential
+    /// part scaled by speedScale. Out of line on purpose: inlined into the parallel loop of
+    /// applyBasalDrag, the compiler made two versions of this arithmetic that contract it into
+    /// FMAs differently, and the one a particle ran depended on where TBB split the range, so
+    /// results differed by an ulp from run to run (path3d, 2 threads, 2026-12-07).
+    Vec3f applied(const Vec3f& v, const Vec3f& n, float h, float rho, const Vec3f& gravity,
+                  float dt) const;
 };
 
 class Collider {

@@ -169,6 +169,14 @@ float BasalDrag::speedScale(float u, float h, float rho, float g, float gNormal,
     return std::max(0.f, turbulent - coulombExtra * dt) / u;
 }
 
+Vec3f BasalDrag::applied(const Vec3f& v, const Vec3f& n, float h, float rho, const Vec3f& gravity,
+                         float dt) const {
+    const Vec3f vt = v - v.dot(n) * n;
+    const float scale =
+        speedScale(vt.norm(), h, rho, gravity.norm(), std::max(-gravity.dot(n), 0.f), dt);
+    return v - vt * (1.f - scale);
+}
+
 Vec3f Collider::applyBoundary(const Vec3f& v, const Vec3f& n) const {
     if (mBoundary == Boundary::Sticky) return Vec3f::Zero();
     const float vn = v.dot(n);

@@ -227,12 +227,8 @@ void applyBasalDrag(World& world, float dt) {
             const Vec3f n = bed->normal(ps.x[i]);
             // Flow thickness normal to the bed: the column's vertical thickness times cos(slope).
             const float h = float(c.volume / area) * std::max(n[1], 0.05f);
-            Vec3f& v = ps.v[i];
-            const Vec3f vt = v - v.dot(n) * n;
-            const float scale =
-                drag.speedScale(vt.norm(), h, world.materials[ps.material[i]].density, g,
-                                std::max(-world.gravity.dot(n), 0.f), dt);
-            v -= vt * (1.f - scale);
+            ps.v[i] = drag.applied(ps.v[i], n, h, world.materials[ps.material[i]].density,
+                                   world.gravity, dt);
         }
     });
 }
