@@ -82,3 +82,48 @@ TEST_CASE("The detector resumes from a checkpoint where it was", "[hazard][check
     CHECK_FALSE(resumed.atRest(1.6, 2.0)); // 5.3 % of 30
     CHECK(resumed.atRest(1.4, 2.0));       // 4.7 %
 }
+
+TEST_CASE("Distance along a path: the foot point's arc length, the ends extended",
+          "[hazard][path]") {
+    const PathLine straight = {{0.0, 0.0}, {100.0, 0.0}};
+    CHECK(distanceAlongPath(straight, 40.0, 7.0) == Approx(40.0));    // lateral offset ignored
+    CHECK(distanceAlongPath(straight, -5.0, 1.0) == Approx(-5.0));    // a crown above the start
+    CHECK(distanceAlongPath(straight, 130.0, -2.0) == Approx(130.0)); // past the end
+    // An L: 10 m east, then 10 m north. A point beside the second leg measures along the first
+    // leg and then up the second; one beyond the end continues along the last leg.
+    const PathLine bend = {{0.0, 0.0}, {10.0, 0.0}, {10.0, 0.0}, {10.0, 10.0}};
+    CHECK(distanceAlongPath(bend, 10.5, 5.0) == Approx(15.0));
+    CHECK(distanceAlongPath(bend, 9.0, 16.0) == Approx(26.0));
+    CHECK(distanceAlongPath(bend, 4.0, -1.0) == Approx(4.0));
+    CHECK(distanceAlongPath({{3.0, 4.0}}, 0.0, 0.0) == Approx(5.0));
+}
+
+TEST_CASE("Alpha along a straight path is alpha along x, and on a bend it follows the path",
+          "[hazard][path]") {
+    // A straight path along x: the angle of the line from the top to the farthest cell.
+    const std::array<double, 3> top = {0.0, 300.0, 0.0};
+    std::vector<std::array<double, 3>> footprint;
+    for (int k = 1; k <= 20; ++k) footprint.push_back({25.0 * k, 300.0 - 10.0 * k, 3.0});
+    const RunoutAlongPath straight = runoutAlongPath({{0.0, 0.0}, {1.0, 0.0}}, top, footprint);
+    REQUIRE(straight.found);
+    CHECK(straight.length == Approx(500.0));
+    CHECK(straight.point[0] == 500.0);
+    CHECK(straight.alphaDeg == Approx(std::atan2(200.0, 500.0) * 180.0 / M_PI));
+    // A path that turns 90 degrees after 300 m: the deposit lies north of the bend, 200 m up
+    // the second leg. Along x the run would be 300 m long; along the path it is 500 m.
+    const PathLine bend = {{0.0, 0.0}, {300.0, 0.0}, {300.0, 400.0}};
+    std::vector<std::array<double, 3>> turned = {
+        {150.0, 250.0, 0.0}, {300.0, 150.0, 100.0}, {302.0, 100.0, 200.0}, {299.0, 120.0, 190.0}};
+    const RunoutAlongPath along = runoutAlongPath(bend, top, turned);
+    CHECK(along.length == Approx(500.0));
+    CHECK(along.point[2] == 200.0);
+    CHECK(along.alphaDeg == Approx(std::atan2(200.0, 500.0) * 180.0 / M_PI));
+    CHECK_FALSE(runoutAlongPath(bend, top, {}).found);
+}
+
+TEST_CASE("A centre of mass's track becomes a path without its resting jitter", "[hazard][path]") {
+    const PathLine track = {{0.0, 0.0}, {0.01, 0.0}, {5.0, 0.0}, {10.0, 1.0}, {10.02, 1.01}};
+    const PathLine path = pathFromTrack(track, 0.5);
+    REQUIRE(path.size() == 3);
+    CHECK(path[2][0] == 10.0);
+}

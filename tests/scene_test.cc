@@ -685,3 +685,14 @@ TEST_CASE("boundary = \"samosat\" takes AvaFrame's mu 0.155 when the scene gives
     const std::string error = errorOf(kMinimal + terrain + "samosat_tau0 = -1.0\n");
     CHECK_THAT(error, Catch::Contains("samosat_tau0") && Catch::Contains(">= 0"));
 }
+
+TEST_CASE("output.path needs a DEM and an existing file, and runout_pressure is positive",
+          "[scene][path]") {
+    CHECK_THAT(errorOf(kMinimal + "\n[output]\npath = \"path.geojson\"\n"),
+               Catch::Contains("18:8: error: output.path") && Catch::Contains("no heightfield"));
+    CHECK_THAT(errorOf(kMinimal + "\n[output]\nrunout_pressure = 0.0\n"),
+               Catch::Contains("runout_pressure"));
+    CHECK(
+        parseScene(kMinimal + "\n[output]\nrunout_pressure = 3.0\n", kPath).output.runoutPressure ==
+        3.0);
+}

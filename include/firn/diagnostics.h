@@ -35,6 +35,7 @@ struct FrameDiagnostics {
     /// starts) and its farthest particle along x (the deposit's tip at the end), m; NaN if none.
     double movedTopX = std::numeric_limits<double>::quiet_NaN();
     double movedTopY = std::numeric_limits<double>::quiet_NaN();
+    double movedTopZ = std::numeric_limits<double>::quiet_NaN(); ///< its z (3D)
     double movedFarX = std::numeric_limits<double>::quiet_NaN();
     double movedFarY = std::numeric_limits<double>::quiet_NaN();
     bool hasWeakLayer = false;

@@ -53,6 +53,11 @@ struct ReleaseArea {
 /// the feature: unreadable, no polygons, a feature without a thickness, a thickness <= 0.
 std::vector<ReleaseArea> readReleaseAreas(const BodyDesc& body);
 
+/// The avalanche's path line of output.path: the first line (LineString, or a MultiLineString's
+/// first part) of the file, (easting, northing) moved into the local frame by `origin` (x, z).
+/// Throws SceneError naming the [output] table, the key and the file.
+std::vector<std::array<double, 2>> readPathLine(const OutputDesc& output, const Vec3d& origin);
+
 /// The name a WKT gives its reference system ("CH1903+ / LV95"), or the WKT's start.
 std::string crsName(const std::string& wkt);
 

@@ -116,6 +116,8 @@ public:
     void set(const std::string& key, const char* value) { set(key, std::string(value)); }
     void setBool(const std::string& key, bool value);
     void setNull(const std::string& key);
+    /// An array of numbers on one line (non-finite ones as null).
+    void set(const std::string& key, const std::vector<double>& values);
     /// An array of objects, one object per line.
     void set(const std::string& key, const std::vector<JsonObject>& objects);
     std::string str() const;

@@ -6,6 +6,7 @@
 #include <firn/particles.h>
 #include <firn/serial.h>
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,9 @@ public:
     float peakSpeed(int column, int row) const { return mPeakSpeed[index(column, row)]; }
     float peakPressure(int column, int row) const { return mPeakPressure[index(column, row)]; }
     float depositThickness(int column, int row) const { return mDeposit[index(column, row)]; }
+    /// The centres of the cells whose peak pressure reached `kPa`: (x, elevation, z), m, in
+    /// the simulation's frame, rows from the south.
+    std::vector<std::array<double, 3>> footprint(double kPa) const;
     int columns() const { return mColumns; }
     int rows() const { return mRows; }
     long long samples() const { return mSamples; }

@@ -227,6 +227,11 @@ struct OutputDesc {
     /// heightfield; rasterCell > 0 sets another cell size, m.
     bool rasters = true;
     double rasterCell = 0.0;
+    /// The avalanche's path line (any OGR line file, in the DEM's coordinates; resolved against
+    /// the scene's folder), for the runout and alpha along it; empty: derived from the flow.
+    std::string path;
+    double runoutPressure = 1.0; ///< kPa: the runout point ends the ppr >= this footprint
+    SourceLoc loc;               ///< the [output] table, for errors about the path file
 };
 
 /// [render]: defaults for `firn render` (its command-line options override them).

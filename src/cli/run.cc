@@ -1,5 +1,6 @@
 #include <firn/checkpoint.h>
 #include <firn/diagnostics.h>
+#include <firn/gis.h>
 #include <firn/hazard.h>
 #include <firn/io.h>
 #include <firn/output_keys.h>
@@ -190,7 +191,10 @@ struct RunState {
     double maxSpeed = 0;
     /// The release's top: the highest point moved snow has had over the frames, m (NaN until
     /// something moves). Snow starts moving where it was, so this is the crown's height.
-    double releaseTopX = std::nan(""), releaseTopY = std::nan("");
+    double releaseTopX = std::nan(""), releaseTopY = std::nan(""), releaseTopZ = std::nan("");
+    /// The centre of mass's (x, z) at each frame: the path the flow took (pathFromTrack).
+    PathLine comTrack;
+    PathLine givenPath; ///< output.path in the local frame (empty: none given)
     FrameDiagnostics first, last;
     /// Horizontal length of the centre of mass's path over the frames, m.
     double comPathLength = 0;
@@ -259,7 +263,8 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     const SlabBlocks& blocks = s.slab.blocks();
     s.maxSpeed = std::max(s.maxSpeed, d.maxSpeed);
     if (d.movedTopY > s.releaseTopY || (std::isnan(s.releaseTopY) && !std::isnan(d.movedTopY)))
-        s.releaseTopX = d.movedTopX, s.releaseTopY = d.movedTopY;
+        s.releaseTopX = d.movedTopX, s.releaseTopY = d.movedTopY, s.releaseTopZ = d.movedTopZ;
+    s.comTrack.push_back({d.centreOfMass[0], d.centreOfMass[2]});
     const double nan = std::nan("");
     s.metrics.appendRow({std::to_string(k),
                          cell(w.time),
@@ -306,8 +311,10 @@ std::string saveRunState(const RunState& s, const StabilityWatch& watch) {
     s.arrival.save(out);
     s.slab.save(out);
     watch.save(out);
-    for (double v : {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY, s.comPathLength})
+    for (double v :
+         {s.lastDt, s.maxSpeed, s.releaseTopX, s.releaseTopY, s.releaseTopZ, s.comPathLength})
         out.value(v);
+    out.array(s.comTrack);
     save(out, s.first);
     save(out, s.last);
     s.peaks.save(out);
@@ -321,8 +328,10 @@ void loadRunState(const std::string& bytes, RunState& s, StabilityWatch& watch) 
     s.arrival.load(in);
     s.slab.load(in);
     watch.load(in);
-    for (double* v : {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY, &s.comPathLength})
+    for (double* v :
+         {&s.lastDt, &s.maxSpeed, &s.releaseTopX, &s.releaseTopY, &s.releaseTopZ, &s.comPathLength})
         in.value(*v);
+    in.array(s.comTrack);
     load(in, s.first);
     load(in, s.last);
     s.peaks.load(in);
@@ -390,6 +399,31 @@ void writeCrackArrival(const RunState& s, const std::string& outDir) {
     writeFileAtomic(path, text);
 }
 
+/// On a DEM: the runout point at the far end, along the avalanche's path, of the footprint
+/// where the peak pressure reached output.runout_pressure, and alpha along that path
+/// (Lied and Bakkehoi 1980; the paper's Fig. 7) in place of alpha along x. The path is the
+/// scene's line (output.path) or the centre of mass's track, extended along its end segments.
+void writeRunoutAlongPath(const RunState& s, JsonObject& j) {
+    const World& w = s.world;
+    const OutputDesc& output = s.scene.output;
+    const PathLine path = output.path.empty() ? pathFromTrack(s.comTrack, w.dx) : s.givenPath;
+    j.set("runout_pressure_threshold", output.runoutPressure);
+    j.set("path_source", output.path.empty() ? "derived" : "scene");
+    const RunoutAlongPath runout =
+        runoutAlongPath(path, {s.releaseTopX, s.releaseTopY, s.releaseTopZ},
+                        s.peaks.footprint(output.runoutPressure));
+    if (path.size() < 2 || !runout.found || std::isnan(s.releaseTopY)) {
+        j.setNull("runout_length"); // nothing moved, or no cell reached the threshold
+        j.setNull("runout_point");
+        return;
+    }
+    j.set("alpha_angle_deg", runout.alphaDeg);
+    j.set("runout_length", runout.length);
+    j.set("runout_point",
+          std::vector<double>{inScene(w, 0, runout.point[0]), inScene(w, 1, runout.point[1]),
+                              inScene(w, 2, runout.point[2])});
+}
+
 void writeSummary(const RunState& s, const RunResult& r, int threads) {
     const World& w = s.world;
     const std::size_t rss = peakRssBytes();
@@ -437,6 +471,7 @@ void writeSummary(const RunState& s, const RunResult& r, int threads) {
     j.set("com_path_length", s.comPathLength);
     j.set("com_travel_angle_deg",
           s.comPathLength > 0 ? std::atan2(drop, s.comPathLength) * 180.0 / M_PI : std::nan(""));
+    if (!s.peaks.empty()) writeRunoutAlongPath(s, j);
     if (!s.peaks.empty()) {
         s.peaks.write(r.outDir + "/rasters");
         j.set("rasters", r.outDir + "/rasters");
@@ -519,6 +554,10 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
     SignalGuard signals; // before setup, so that a signal at any time ends with a summary
     const double baselineRss = currentRssBytes();
 
+    // A path file that holds no line fails now, not after the run.
+    const PathLine givenPath = sceneIn.output.path.empty()
+                                   ? PathLine{}
+                                   : readPathLine(sceneIn.output, localFrameOrigin(sceneIn));
     std::unique_ptr<World> world;
     SceneDesc scene = sceneIn;
     LoadedCheckpoint resumed;
@@ -559,6 +598,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                        : std::make_unique<RunState>(scene, *world, result.outDir);
     RunState& s = *state;
     s.baselineRss = baselineRss;
+    s.givenPath = givenPath;
     s.peaks = makePeakFields(scene, *world);
     if (!options.resume) s.peaks.accumulate(world->particles); // the release at t = 0
     const int frames =
@@ -752,6 +792,16 @@ std::string describeTerrain(const SceneDesc& scene) {
     if (rasters.columns > 0)
         out << "  rasters: pft, pfv, ppr, dft on " << rasters.columns << " x " << rasters.rows
             << " cells of " << rasters.cell << " m in " << scene.output.directory << "/rasters\n";
+    if (rasters.columns > 0) {
+        out << "  runout: the far end of the ppr >= " << formatNumber(scene.output.runoutPressure)
+            << " kPa footprint along ";
+        if (scene.output.path.empty()) {
+            out << "the centre of mass's track (no output.path)\n";
+        } else {
+            const PathLine line = readPathLine(scene.output, localFrameOrigin(scene));
+            out << scene.output.path << " (" << line.size() << " points)\n";
+        }
+    }
     return out.str();
 }
 

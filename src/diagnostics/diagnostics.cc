@@ -97,7 +97,9 @@ void merge(FrameDiagnostics& into, const FrameDiagnostics& d) {
     into.intactMinX = std::fmin(into.intactMinX, d.intactMinX); // NaN (none) gives way
     into.intactMaxX = std::fmax(into.intactMaxX, d.intactMaxX);
     if (d.movedTopY > into.movedTopY || std::isnan(into.movedTopY))
-        if (!std::isnan(d.movedTopY)) into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX;
+        if (!std::isnan(d.movedTopY))
+            into.movedTopY = d.movedTopY, into.movedTopX = d.movedTopX,
+            into.movedTopZ = d.movedTopZ;
     if (d.movedFarX > into.movedFarX || std::isnan(into.movedFarX))
         if (!std::isnan(d.movedFarX)) into.movedFarX = d.movedFarX, into.movedFarY = d.movedFarY;
     mergeCellTimes(into.crackCells, into.crackCellTimes, d.crackCells, d.crackCellTimes);
@@ -159,7 +161,7 @@ FrameDiagnostics leafDiagnostics(const World& world, std::size_t l) {
         if (ps.plastic[i].flags & kFlagFailed) d.failedFraction += m;
         if (mat.slab) d.slabMass += m, d.slabMomentum += m * v;
         if (ps.plastic[i].flags & kFlagMoved) {
-            if (!(x[1] <= d.movedTopY)) d.movedTopY = x[1], d.movedTopX = x[0];
+            if (!(x[1] <= d.movedTopY)) d.movedTopY = x[1], d.movedTopX = x[0], d.movedTopZ = x[2];
             if (!(x[0] <= d.movedFarX)) d.movedFarX = x[0], d.movedFarY = x[1];
         }
         if (mat.model == MaterialModel::WeakLayer) {

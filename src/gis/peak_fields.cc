@@ -99,6 +99,16 @@ bool PeakFields::afterStep(const ParticleSet& particles, double maxSpeed, double
     return true;
 }
 
+std::vector<std::array<double, 3>> PeakFields::footprint(double kPa) const {
+    std::vector<std::array<double, 3>> cells;
+    for (int row = 0; row < mRows; ++row)
+        for (int column = 0; column < mColumns; ++column)
+            if (mPeakPressure[index(column, row)] >= kPa)
+                cells.push_back({mWest + (column + 0.5) * mCell, mElevation[index(column, row)],
+                                 mSouth + (row + 0.5) * mCell});
+    return cells;
+}
+
 void PeakFields::write(const std::string& dir) const {
     if (empty()) return;
     makeDirectories(dir);

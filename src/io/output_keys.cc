@@ -97,8 +97,18 @@ const std::vector<OutputKeyDoc> kSummaryKeys = {
     {"release_top_x", "m", "the highest point moving snow has had (the crown)"},
     {"release_top_y", "m", "its height"},
     {"alpha_angle_deg", "degrees",
-     "from (`release_top_x`, `release_top_y`) to (`runout_x`, `runout_y`), from the "
-     "horizontal; null when nothing moved"},
+     "the runout angle (Lied and Bakkehøi 1980): the drop from the release's top to the runout "
+     "point over the horizontal distance between them. On a DEM that distance is measured along "
+     "the path (`runout_length`, `path_source`) and the runout point ends the ppr ≥ "
+     "`runout_pressure_threshold` footprint; elsewhere along x, from (`release_top_x`, "
+     "`release_top_y`) to (`runout_x`, `runout_y`); null when nothing moved"},
+    {"runout_length", "m",
+     "on a DEM: horizontal distance along the path from the release's top to the runout point "
+     "(null when no cell reached the threshold)"},
+    {"runout_point", "m", "on a DEM: `[x, y, z]` of the runout point, a raster cell's centre"},
+    {"runout_pressure_threshold", "kPa", "on a DEM: `output.runout_pressure`"},
+    {"path_source", "",
+     "on a DEM: `scene` (`output.path`) or `derived` (the centre of mass's track)"},
     {"com_path_length", "m", "horizontal length of the centre of mass's path"},
     {"com_travel_angle_deg", "degrees", "the centre of mass's drop over that path"},
     {"rasters", "", "the peak rasters' folder (on a heightfield; Firn addition)"},

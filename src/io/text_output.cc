@@ -240,6 +240,13 @@ void JsonObject::set(const std::string& key, double value) {
     upsert(mItems, key, std::isfinite(value) ? formatNumber(value) : "null");
 }
 
+void JsonObject::set(const std::string& key, const std::vector<double>& values) {
+    std::string out = "[";
+    for (std::size_t i = 0; i < values.size(); ++i)
+        out += (i ? ", " : "") + (std::isfinite(values[i]) ? formatNumber(values[i]) : "null");
+    upsert(mItems, key, out + "]");
+}
+
 void JsonObject::set(const std::string& key, long long value) {
     upsert(mItems, key, std::to_string(value));
 }

@@ -173,6 +173,10 @@ const SceneKeyDoc
              R"md(on a heightfield: write the peak rasters (`rasters/`, see [*Real terrain*](../terrain.md)); `true` without a heightfield is an error)md"},
             {"output", R"md(`raster_cell`)md", R"md(the DEM's)md", "",
              R"md(cell size of the peak rasters, m, over the DEM's extent from its south-west corner)md"},
+            {"output", R"md(`path`)md", R"md(derived)md", "",
+             R"md(the avalanche's path line (AvaFrame's `path_aimec`): any OGR line file (shapefile, GeoJSON, GeoPackage; its first LineString) in the DEM's coordinates, relative to the scene, in the direction of flow; on a heightfield only. The runout point and `alpha_angle_deg` are measured along it; without it, along the centre of mass's track, extended along its end segments (name fixed by the spec))md"},
+            {"output", R"md(`runout_pressure`)md", R"md(`1.0`)md", "",
+             R"md(kPa (> 0): the runout point is the far end, along the path, of the cells whose peak pressure reached this (AvaFrame's 1 kPa; name fixed by the spec))md"},
             // [render]
             {"render", R"md(`width`, `height`)md", R"md(`960`, `540`)md", "",
              R"md(image size, pixels, 16–8192)md"},

@@ -639,6 +639,17 @@ void readOutput(TableReader& r, OutputDesc& output, const std::vector<TerrainDes
         r.failAt("rasters", "peak rasters are written on a DEM's grid: the scene has no "
                             "heightfield terrain");
     r.real("raster_cell", output.rasterCell, Range::positive());
+    output.loc = r.headerLoc();
+    if (r.string("path", output.path)) {
+        if (!onDem)
+            r.failAt("path", "the runout along a path is measured on the peak pressure raster: "
+                             "the scene has no heightfield terrain");
+        output.path = resolvePath(r.context().folder, output.path);
+        std::error_code error;
+        if (!std::filesystem::is_regular_file(output.path, error))
+            r.failAt("path", "file not found: " + output.path);
+    }
+    r.real("runout_pressure", output.runoutPressure, Range::positive());
     r.finish();
 }
 
@@ -728,6 +739,10 @@ void absoluteTerrainFiles(toml::table& root, const SceneDesc& desc) {
                                                .string());
         }
     }
+    toml::table* output = root["output"].as_table();
+    if (output && output->contains("path"))
+        output->insert_or_assign(
+            "path", std::filesystem::absolute(desc.output.path).lexically_normal().string());
 }
 
 // A --set of flip_blend or flip_relaxation_time overrides the other from the file (readGrid):
