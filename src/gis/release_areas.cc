@@ -21,9 +21,6 @@ namespace {
 }
 
 using gis::Dataset;
-struct FeatureDeleter {
-    void operator()(void* f) const { OGR_F_Destroy(OGRFeatureH(f)); }
-};
 
 /// The rings of one polygon geometry, moved into the local frame.
 void addPolygon(OGRGeometryH polygon, const Vec3d& origin, ReleaseArea& area) {
@@ -78,42 +75,33 @@ std::vector<ReleaseArea> readReleaseAreas(const BodyDesc& body) {
         fail(body, "OGR cannot read it as a vector file" + (why.empty() ? "" : ": " + why));
     }
     std::vector<ReleaseArea> areas;
-    for (int l = 0; l < GDALDatasetGetLayerCount(dataset.get()); ++l) {
-        OGRLayerH layer = GDALDatasetGetLayer(dataset.get(), l);
-        OGR_L_ResetReading(layer);
-        while (true) {
-            std::unique_ptr<void, FeatureDeleter> feature(OGR_L_GetNextFeature(layer));
-            if (!feature) break;
-            OGRFeatureH f = OGRFeatureH(feature.get());
-            OGRGeometryH geometry = OGR_F_GetGeometryRef(f);
-            if (!geometry) continue;
-            const OGRwkbGeometryType type = wkbFlatten(OGR_G_GetGeometryType(geometry));
-            if (type != wkbPolygon && type != wkbMultiPolygon) continue;
-            ReleaseArea area;
-            area.label = "feature " + std::to_string(OGR_F_GetFID(f));
-            if (type == wkbPolygon) {
-                addPolygon(geometry, body.footprintOrigin, area);
-            } else {
-                for (int k = 0; k < OGR_G_GetGeometryCount(geometry); ++k)
-                    addPolygon(OGR_G_GetGeometryRef(geometry, k), body.footprintOrigin, area);
-            }
-            if (area.rings.empty()) continue;
-            if (body.thickness > 0.0) {
-                area.thickness = body.thickness;
-            } else {
-                const int field = OGR_F_GetFieldIndex(f, body.thicknessAttribute.c_str());
-                if (field < 0 || !OGR_F_IsFieldSetAndNotNull(f, field))
-                    fail(body, area.label + " has no '" + body.thicknessAttribute +
-                                   "' attribute: give the body a thickness, or the feature one");
-                area.thickness = OGR_F_GetFieldAsDouble(f, field);
-                if (!(area.thickness > 0.0 && std::isfinite(area.thickness)))
-                    fail(body,
-                         area.label + ": thickness " + number(area.thickness) + " m must be > 0");
-            }
-            computeBounds(area);
-            areas.push_back(std::move(area));
+    gis::forEachFeature(dataset.get(), [&](OGRFeatureH f, OGRGeometryH geometry) {
+        const OGRwkbGeometryType type = wkbFlatten(OGR_G_GetGeometryType(geometry));
+        if (type != wkbPolygon && type != wkbMultiPolygon) return true;
+        ReleaseArea area;
+        area.label = "feature " + std::to_string(OGR_F_GetFID(f));
+        if (type == wkbPolygon) {
+            addPolygon(geometry, body.footprintOrigin, area);
+        } else {
+            for (int k = 0; k < OGR_G_GetGeometryCount(geometry); ++k)
+                addPolygon(OGR_G_GetGeometryRef(geometry, k), body.footprintOrigin, area);
         }
-    }
+        if (area.rings.empty()) return true;
+        if (body.thickness > 0.0) {
+            area.thickness = body.thickness;
+        } else {
+            const int field = OGR_F_GetFieldIndex(f, body.thicknessAttribute.c_str());
+            if (field < 0 || !OGR_F_IsFieldSetAndNotNull(f, field))
+                fail(body, area.label + " has no '" + body.thicknessAttribute +
+                               "' attribute: give the body a thickness, or the feature one");
+            area.thickness = OGR_F_GetFieldAsDouble(f, field);
+            if (!(area.thickness > 0.0 && std::isfinite(area.thickness)))
+                fail(body, area.label + ": thickness " + number(area.thickness) + " m must be > 0");
+        }
+        computeBounds(area);
+        areas.push_back(std::move(area));
+        return true;
+    });
     if (areas.empty()) fail(body, "holds no polygon");
     return areas;
 }
