@@ -215,19 +215,22 @@ ParticleFrame exportParticles(const World& world) {
     ParticleFrame f;
     f.P.resize(n), f.v.resize(n), f.material.resize(n), f.failed.resize(n);
     f.eps_v.resize(n), f.eta.resize(n), f.p.resize(n), f.q.resize(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            f.P[i] = {ps.x[i][0], ps.x[i][1], ps.x[i][2]};
-            f.v[i] = {ps.v[i][0], ps.v[i][1], ps.v[i][2]};
-            f.material[i] = ps.material[i];
-            f.failed[i] = (ps.plastic[i].flags & kFlagFailed) ? 1 : 0;
-            f.eps_v[i] = ps.plastic[i].epsV;
-            f.eta[i] = ps.plastic[i].eta;
-            const StressInvariants pq = invariantsOf(ps.stress(i), world.dim);
-            f.p[i] = pq.p;
-            f.q[i] = pq.q;
-        }
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, 4096),
+        [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                f.P[i] = {ps.x[i][0], ps.x[i][1], ps.x[i][2]};
+                f.v[i] = {ps.v[i][0], ps.v[i][1], ps.v[i][2]};
+                f.material[i] = ps.material[i];
+                f.failed[i] = (ps.plastic[i].flags & kFlagFailed) ? 1 : 0;
+                f.eps_v[i] = ps.plastic[i].epsV;
+                f.eta[i] = ps.plastic[i].eta;
+                const StressInvariants pq = invariantsOf(ps.stress(i), world.dim);
+                f.p[i] = pq.p;
+                f.q[i] = pq.q;
+            }
+        },
+        tbb::simple_partitioner());
     return f;
 }
 

@@ -219,61 +219,76 @@ void applyBasalDrag(World& world, float dt) {
         c.onBed = c.onBed || bed->signedDistance(ps.x[i]) < dx;
     }
     const float area = is3d ? dx * dx : dx; // 2D: per metre of depth
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            if (ps.asleep(i)) continue;
-            const Column& c = columns.find(columnOf[i])->second;
-            if (!c.onBed) continue; // airborne snow feels no bed
-            const Vec3f n = bed->normal(ps.x[i]);
-            // Flow thickness normal to the bed: the column's vertical thickness times cos(slope).
-            const float h = float(c.volume / area) * std::max(n[1], 0.05f);
-            ps.v[i] = drag.applied(ps.v[i], n, h, world.materials[ps.material[i]].density,
-                                   world.gravity, dt);
-        }
-    });
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, ps.size(), 2048),
+        [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                if (ps.asleep(i)) continue;
+                const Column& c = columns.find(columnOf[i])->second;
+                if (!c.onBed) continue; // airborne snow feels no bed
+                const Vec3f n = bed->normal(ps.x[i]);
+                // Flow thickness normal to the bed: the column's vertical thickness times
+                // cos(slope).
+                const float h = float(c.volume / area) * std::max(n[1], 0.05f);
+                ps.v[i] = drag.applied(ps.v[i], n, h, world.materials[ps.material[i]].density,
+                                       world.gravity, dt);
+            }
+        },
+        tbb::simple_partitioner());
 }
 
+// This loop, applyBasalDrag's and exportParticles' split their particle ranges with
+// simple_partitioner: into pieces of the grain size at places that depend on the count alone, not
+// on the thread count or on which thread stole what. A per-particle result then cannot depend on
+// where its chunk starts (the Hencky batches start at chunk starts; a compiler may version a loop
+// body), and the run stays bitwise the same for any thread count (applyBasalDrag once was not:
+// BasalDrag::applied).
 void applyPlasticity(World& world, double stateTime) {
     ParticleSet& ps = world.particles;
     const int dim = world.dim;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.size(), 2048), [&](const auto& r) {
-        Mat3f series[kHenckyBatch];
-        unsigned inSeries = 0;
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-            const std::size_t lane = (i - r.begin()) % kHenckyBatch;
-            if (lane == 0)
-                inSeries = henckyStrainSeries(
-                    &ps.H[i], int(std::min<std::size_t>(kHenckyBatch, r.end() - i)), dim, series);
-            if (ps.asleep(i)) continue;
-            const Material& mat = world.materials[ps.material[i]];
-            if ((inSeries >> lane & 1u) &&
-                elasticFastPath(mat, series[lane], ps.plastic[i], dim, ps.tau[i]))
-                continue;
-            const LeftStretch ls = leftStretch(ps.deformationGradient(i), dim);
-            Vec3f eps = Vec3f::Zero();
-            for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
-            if (mat.model != MaterialModel::Elastic) {
-                const ReturnMapResult rm =
-                    mat.rateDependent()
-                        ? returnMap(atInertialNumber(mat, ps.C[i], eps, dim), eps, ps.plastic[i])
-                        : returnMap(mat, eps, ps.plastic[i]);
-                ps.plastic[i] = rm.state;
-                markFractureTime(mat, stateTime, ps.plastic[i]);
-                if (rm.eps != eps) {
-                    // Fe = U exp(eps) V^T = R Fe_trial with R = U diag(exp(eps) / sigma) U^T, as
-                    // H <- H + (R - I)(I + H), R - I = U diag(expm1(eps - eps_trial)) U^T, which
-                    // keeps a small return in H (ParticleSet::H).
-                    Vec3f scaleMinusOne = Vec3f::Zero();
-                    for (int a = 0; a < dim; ++a) scaleMinusOne[a] = std::expm1(rm.eps[a] - eps[a]);
-                    const Mat3f rotatedMinusI =
-                        ls.U * scaleMinusOne.asDiagonal() * ls.U.transpose();
-                    ps.H[i] += rotatedMinusI + rotatedMinusI * ps.H[i];
-                    eps = rm.eps;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, ps.size(), 2048),
+        [&](const auto& r) {
+            Mat3f series[kHenckyBatch];
+            unsigned inSeries = 0;
+            for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                const std::size_t lane = (i - r.begin()) % kHenckyBatch;
+                if (lane == 0)
+                    inSeries = henckyStrainSeries(
+                        &ps.H[i], int(std::min<std::size_t>(kHenckyBatch, r.end() - i)), dim,
+                        series);
+                if (ps.asleep(i)) continue;
+                const Material& mat = world.materials[ps.material[i]];
+                if ((inSeries >> lane & 1u) &&
+                    elasticFastPath(mat, series[lane], ps.plastic[i], dim, ps.tau[i]))
+                    continue;
+                const LeftStretch ls = leftStretch(ps.deformationGradient(i), dim);
+                Vec3f eps = Vec3f::Zero();
+                for (int a = 0; a < dim; ++a) eps[a] = std::log(ls.sigma[a]);
+                if (mat.model != MaterialModel::Elastic) {
+                    const ReturnMapResult rm =
+                        mat.rateDependent() ? returnMap(atInertialNumber(mat, ps.C[i], eps, dim),
+                                                        eps, ps.plastic[i])
+                                            : returnMap(mat, eps, ps.plastic[i]);
+                    ps.plastic[i] = rm.state;
+                    markFractureTime(mat, stateTime, ps.plastic[i]);
+                    if (rm.eps != eps) {
+                        // Fe = U exp(eps) V^T = R Fe_trial with R = U diag(exp(eps) / sigma) U^T,
+                        // as H <- H + (R - I)(I + H), R - I = U diag(expm1(eps - eps_trial)) U^T,
+                        // which keeps a small return in H (ParticleSet::H).
+                        Vec3f scaleMinusOne = Vec3f::Zero();
+                        for (int a = 0; a < dim; ++a)
+                            scaleMinusOne[a] = std::expm1(rm.eps[a] - eps[a]);
+                        const Mat3f rotatedMinusI =
+                            ls.U * scaleMinusOne.asDiagonal() * ls.U.transpose();
+                        ps.H[i] += rotatedMinusI + rotatedMinusI * ps.H[i];
+                        eps = rm.eps;
+                    }
                 }
+                ps.tau[i] = rotateDiagonal(ls.U, kirchhoffPrincipal(mat.lame, eps, dim));
             }
-            ps.tau[i] = rotateDiagonal(ls.U, kirchhoffPrincipal(mat.lame, eps, dim));
-        }
-    });
+        },
+        tbb::simple_partitioner());
 }
 
 void step(World& world, double dt, StepTimings* timings) {
