@@ -2,13 +2,16 @@
 // the path, on synthetic data.
 #include "report/deposit_profile.h"
 #include "report/map_frames.h"
+#include "report/run_scene.h"
 #include "report/weak_layer_map.h"
+#include "test_util.h"
 
 #include <firn/errors.h>
 
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 
 using namespace firn;
@@ -151,4 +154,26 @@ TEST_CASE("map frames: evenly spaced while the crack runs, or at requested times
         REQUIRE_THROWS_WITH(chooseMapFrames(frames, times, tip, {0.5}, 0.02),
                             Catch::Contains("--times") && Catch::Contains("outside the run"));
     }
+}
+
+TEST_CASE("The report reads a hazard run's scene without its DEM, release or path line files",
+          "[report]") {
+    // A run folder moved to another machine: scene.toml names files that are gone. The report
+    // needs none of them (a path line once stopped it: "the scene has no heightfield terrain").
+    const test::TempDir folder("report-run-scene");
+    const std::string path = folder.path() + "/scene.toml";
+    std::ofstream(path) << "[output]\npath = \"/nowhere/path.geojson\"\nrasters = true\n"
+                           "runout_pressure = 2.0\n\n[simulation]\ndimension = 3\n"
+                           "name = \"helix\"\n\n[[body]]\nfile = \"/nowhere/release.geojson\"\n"
+                           "material = \"snow\"\nshape = \"polygon\"\n\n[[material]]\n"
+                           "model = \"granular\"\nname = \"snow\"\n\n[[terrain]]\n"
+                           "file = \"/nowhere/dem.asc\"\nshape = \"heightfield\"\n";
+    const SceneDesc scene = loadRunScene(path);
+    CHECK(scene.simulation.dimension == 3);
+    CHECK(scene.simulation.name == "helix");
+    REQUIRE(scene.materials.size() == 1);
+    CHECK(scene.materials[0].name == "snow");
+    CHECK(scene.terrains.empty());
+    CHECK(scene.output.path.empty());
+    CHECK(scene.output.runoutPressure == 2.0);
 }

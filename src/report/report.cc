@@ -10,6 +10,7 @@
 #include "report/metrics_table.h"
 #include "report/particle_reader.h"
 #include "report/python_script.h"
+#include "report/run_scene.h"
 #include "report/weak_layer_map.h"
 
 #include <toml++/toml.h>
@@ -28,39 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using report::CachedFrame;
-
-/// The run's scene.toml without its [[terrain]], [[body]] and [[cut]] tables (and
-/// output.rasters, which needs a terrain). The report needs the dimension, the grid and the
-/// materials only, and a heightfield's DEM or a polygon body's file need not be where
-/// scene.toml says: a run folder copied to another machine, or one written before scene.toml
-/// held absolute paths, still gets its report. scene.toml is written by toml++, which puts
-/// arrays of tables last, so the lines of the tables the report reads (and what error messages
-/// say about them) do not move.
-SceneDesc loadRunScene(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) {
-        throw IoError("cannot read " + path +
-                      ": no such file (is this a folder written by "
-                      "`firn run`?)");
-    }
-    std::ostringstream text;
-    text << in.rdbuf();
-    toml::table root;
-    try {
-        root = toml::parse(text.str(), std::string_view(path));
-    } catch (const toml::parse_error& e) {
-        const auto& at = e.source().begin;
-        throw SceneError(SourceLoc{path, int(at.line), int(at.column)}, "syntax",
-                         std::string(e.description()));
-    }
-    root.erase("terrain");
-    root.erase("body");
-    root.erase("cut");
-    if (toml::table* output = root["output"].as_table()) output->erase("rasters");
-    std::ostringstream withoutTerrain;
-    withoutTerrain << root;
-    return parseScene(withoutTerrain.str(), path);
-}
 
 /// Float data carry about 7 significant digits; more would only make the tables longer.
 std::string csvNumber(double value) {
@@ -92,7 +60,7 @@ RunFolder openRunFolder(const std::string& outDir) {
     }
     RunFolder run;
     run.outDir = outDir;
-    run.scene = loadRunScene(outDir + "/scene.toml");
+    run.scene = report::loadRunScene(outDir + "/scene.toml");
     for (const MaterialDesc& m : run.scene.materials) {
         const bool weak = m.model == MaterialModel::WeakLayer;
         run.materials.push_back({weak, m.initialP0, m.criticalStateSlope, m.cohesionRatio});

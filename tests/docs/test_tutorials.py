@@ -3,10 +3,15 @@
 
 Every fenced block marked ```sh on the page runs, in page order, with bash -e in a scratch folder
 that looks like the checkout (scenes/, docs/, bench/, render/ linked, build/firn the binary
-under test, out/ its own). Two HTML comments, invisible on the site, steer the block after them:
+under test, out/ its own). HTML comments, invisible on the site, steer the block after them (one
+of each kind, on the lines right before it):
   <!-- test-set: grid.dx=0.1 simulation.end_time=0.2 -->
       adds `--set KEY=VALUE` for each to every `firn run` and `firn check` of the block, so that a
       long run is tested at a coarse resolution or a short end time;
+  <!-- test-expect: FRAGMENT | FRAGMENT -->
+      each fragment must appear in what the block prints (stdout and stderr): the lines of the
+      output the page shows that do not depend on the machine, so a page whose output drifted
+      from the code fails;
   <!-- test-skip: REASON -->
       skips the block (a GUI, a server); the reason is required.
 Usage: test_tutorials.py PAGE.md --firn BIN --source DIR --work DIR
@@ -19,18 +24,18 @@ import subprocess
 import sys
 
 FENCE = re.compile(r"^```(\S*)\s*$")
-DIRECTIVE = re.compile(r"^<!--\s*test-(set|skip):\s*(.*?)\s*-->\s*$")
+DIRECTIVE = re.compile(r"^<!--\s*test-(set|skip|expect):\s*(.*?)\s*-->\s*$")
 FIRN_COMMAND = re.compile(r"(build/firn\s+(?:run|check)\s+\S+)")
 
 
 def blocks(page_text):
-    """(line number, language, text, directive) of every fenced block."""
+    """(line number, language, text, directives {kind: value}) of every fenced block."""
     lines = page_text.split("\n")
-    out, directive, i = [], None, 0
+    out, directive, i = [], {}, 0
     while i < len(lines):
         d = DIRECTIVE.match(lines[i])
         if d:
-            directive = (d.group(1), d.group(2))
+            directive[d.group(1)] = d.group(2)
             i += 1
             continue
         f = FENCE.match(lines[i])
@@ -41,9 +46,9 @@ def blocks(page_text):
                 body.append(lines[i])
                 i += 1
             out.append((start, lang, "\n".join(body), directive))
-            directive = None
+            directive = {}
         elif lines[i].strip():
-            directive = None  # a directive steers only the block right after it
+            directive = {}  # a directive steers only the block right after it
         i += 1
     return out
 
@@ -77,12 +82,12 @@ def main():
     for line, lang, body, directive in blocks(text):
         if lang != "sh":
             continue
-        if directive and directive[0] == "skip":
-            if not directive[1]:
+        if "skip" in directive:
+            if not directive["skip"]:
                 sys.exit(f"{a.page}:{line}: test-skip needs a reason")
-            print(f"{a.page}:{line}: skipped ({directive[1]})")
+            print(f"{a.page}:{line}: skipped ({directive['skip']})")
             continue
-        script = with_sets(body, directive[1] if directive and directive[0] == "set" else "")
+        script = with_sets(body, directive.get("set", ""))
         print(f"{a.page}:{line}:\n{script}", flush=True)
         r = subprocess.run(["bash", "-euo", "pipefail", "-c", script], cwd=a.work,
                            capture_output=True, text=True)
@@ -90,6 +95,15 @@ def main():
             print(r.stdout[-3000:])
             print(r.stderr[-3000:])
             sys.exit(f"{a.page}:{line}: the block failed with exit code {r.returncode}")
+        printed = r.stdout + r.stderr
+        expected = [f.strip() for f in directive.get("expect", "").split(" | ") if f.strip()]
+        missing = [f for f in expected if f not in printed]
+        if missing:
+            print(printed[-3000:])
+            sys.exit(f"{a.page}:{line}: the block's output lacks what the page shows: "
+                     + "; ".join(repr(f) for f in missing))
+        if expected:
+            print(f"{a.page}:{line}: {len(expected)} expected fragments found")
         ran += 1
     if ran == 0:
         sys.exit(f"{a.page}: no ```sh block ran: a tutorial without commands tests nothing")
