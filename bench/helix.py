@@ -30,6 +30,8 @@ import sys
 
 import numpy as np
 
+from esri_ascii import read_asc
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 CELL = 5.0
@@ -42,6 +44,16 @@ RELEASE_RADII = (1080.0, 1420.0)
 RELEASE_THETA = (0.07, 0.2253)
 RELEASE_THICKNESS = 1.0
 
+# The issue's snow: granular, 200 kg/m^3, phi 35 deg (bench/thickness_study.py uses it too).
+SNOW_MATERIAL = """[[material]]
+name = "snow"
+model = "granular"
+density = 200.0
+youngs_modulus = 1.0e5
+poisson_ratio = 0.3
+friction_angle = 35.0
+"""
+
 SCENE = """# avaHelix as Firn runs it (bench/helix.py writes this file and its inputs)
 [simulation]
 name = "helix"
@@ -53,14 +65,7 @@ frame_rate = 1.0
 dx = 2.5
 max_dt = 0.01
 
-[[material]]
-name = "snow"
-model = "granular"
-density = 200.0
-youngs_modulus = 1.0e5
-poisson_ratio = 0.3
-friction_angle = 35.0
-
+""" + SNOW_MATERIAL + """
 [[terrain]]
 shape = "heightfield"
 file = "dem.asc"
@@ -141,23 +146,6 @@ def write_inputs(folder):
     (folder / "path.geojson").write_text(json.dumps(path), encoding="utf-8")
     (folder / "helix.toml").write_text(SCENE, encoding="utf-8")
     return area
-
-
-def read_asc(path):
-    """An ESRI ASCII grid (header keys, then the rows from the north, wrapped at any length) as
-    rows from the south, nodata as NaN."""
-    header, values = {}, []
-    with open(path, encoding="ascii") as f:
-        for line in f:
-            fields = line.split()
-            if fields and fields[0][0].isalpha():
-                header[fields[0].lower()] = float(fields[1])
-            else:
-                values.extend(float(v) for v in fields)
-    data = np.array(values).reshape(int(header["nrows"]), int(header["ncols"]))[::-1]
-    if "nodata_value" in header:
-        data = np.where(data == header["nodata_value"], np.nan, data)
-    return header, data
 
 
 def map_figures(rasters):

@@ -35,9 +35,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from esri_ascii import read_asc  # noqa: E402
+from helix import SNOW_MATERIAL  # noqa: E402
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 G = 9.81
-THETA, DELTA, PHI = 22.0, 21.0, 35.0
+THETA, DELTA, PHI = 22.0, 21.0, 35.0  # PHI: SNOW_MATERIAL's friction angle
 H0 = 1.0
 LENGTH, WIDTH = 60.0, 80.0  # m along the slope and across: see the bounds in `layout`
 T_END = 10.0
@@ -53,14 +56,7 @@ stop_at_rest = false
 [grid]
 dx = {dx}
 
-[[material]]
-name = "snow"
-model = "granular"
-density = 200.0
-youngs_modulus = 1.0e5
-poisson_ratio = 0.3
-friction_angle = {phi}
-
+{snow}
 [[terrain]]
 shape = "heightfield"
 file = "plane.asc"
@@ -128,26 +124,9 @@ def write_inputs(folder, dx):
         "geometry": {"type": "Polygon", "coordinates": [ring]}}]}
     (folder / "release.geojson").write_text(json.dumps(release), encoding="utf-8")
     (folder / "scene.toml").write_text(SCENE.format(
-        t_end=T_END, dx=dx, phi=PHI, mu=math.tan(math.radians(DELTA)), h0=H0),
+        t_end=T_END, dx=dx, snow=SNOW_MATERIAL, mu=math.tan(math.radians(DELTA)), h0=H0),
         encoding="utf-8")
     return dam, 20.0 + 0.5 * WIDTH
-
-
-def read_asc(path):
-    """An ESRI ASCII grid (header keys, then the rows from the north, wrapped at any length) as
-    rows from the south, nodata as NaN."""
-    header, values = {}, []
-    with open(path, encoding="ascii") as f:
-        for line in f:
-            fields = line.split()
-            if fields and fields[0][0].isalpha():
-                header[fields[0].lower()] = float(fields[1])
-            else:
-                values.extend(float(v) for v in fields)
-    data = np.array(values).reshape(int(header["nrows"]), int(header["ncols"]))[::-1]
-    if "nodata_value" in header:
-        data = np.where(data == header["nodata_value"], np.nan, data)
-    return header, data
 
 
 def centre_profile(rasters, dam, y_centre, band):

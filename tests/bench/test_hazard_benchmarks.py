@@ -14,6 +14,7 @@ import tempfile
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, '..', '..', 'bench'))  # the scripts' shared esri_ascii
 
 
 def load(name):
