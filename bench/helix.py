@@ -95,6 +95,8 @@ VARIANTS = {
                       ["grid.max_dt=1.0", "grid.particles_per_cell=1"]),
     "stop-cfl-dx5": ("as stop-cfl at dx 5 m, AvaFrame's mesh and the DEM's cell",
                      ["grid.max_dt=1.0", "grid.dx=5.0"]),
+    "stop-cfl-dx1.25": ("as stop-cfl at dx 1.25 m: where pft goes on a finer grid",
+                        ["grid.max_dt=1.0", "grid.dx=1.25"]),
 }
 
 
