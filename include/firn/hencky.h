@@ -19,3 +19,19 @@ unsigned henckyStrainSeries(const Eigen::Matrix3f* displacementGradients, int co
                             Eigen::Matrix3f* eps);
 
 } // namespace firn
+
+namespace firn {
+
+/// Principal Hencky strains (`values[l]`, unsorted) and directions (the columns of the rotation
+/// `directions[l]`) of the 3D particles of a batch whose lanes are set in `wanted`, by cyclic
+/// Jacobi sweeps in float, all lanes at once: for a lane in `inSeries` the symmetric strain
+/// `series[l]` that henckyStrainSeries gave is decomposed directly (no F F^T eigenproblem, no
+/// logs); for the others X = F F^T - I of F = I + displacementGradients[l], eps_a = 1/2
+/// log1p(lambda_a), where ||X||_F <= 0.5. Accurate to float round-off relative to the strain's
+/// norm, double roots included. Returns the mask of the lanes written: a lane too compressed or
+/// stretched for X's float round-off is left to svd.cc's double precision.
+unsigned principalHenckyStrains(const Eigen::Matrix3f* displacementGradients,
+                                const Eigen::Matrix3f* series, unsigned inSeries, unsigned wanted,
+                                Eigen::Matrix3f* directions, Eigen::Vector3f* values);
+
+} // namespace firn
