@@ -5,6 +5,7 @@
 #include <firn/collider.h>
 #include <firn/grid.h>
 #include <firn/material.h>
+#include <firn/node_contacts.h>
 #include <firn/particles.h>
 #include <firn/scene.h>
 #include <firn/settle.h>
@@ -49,7 +50,8 @@ struct World {
     ParticleSet particles;
     Grid grid;
     TransferScratch scratch;
-    StickyWalls stickyWalls; ///< the sticky colliders' ghost nodes of the current step
+    StickyWalls stickyWalls;   ///< the sticky colliders' ghost nodes of the current step
+    NodeContacts nodeContacts; ///< the colliders' answers at the grid's nodes, kept per leaf
     SleepNeighbours sleepNeighbours;
 
     double time = 0.0; ///< s

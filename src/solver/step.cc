@@ -124,6 +124,9 @@ void updateGridVelocity(World& world, float dt) {
     world.stickyWalls.fold(world.colliders, grid, world.dx, world.dim, flip, dv);
     const StickyWalls& walls = world.stickyWalls;
     const float tolerance = kContactTolerance * world.dx;
+    NodeContacts& contacts = world.nodeContacts;
+    contacts.bind(grid, world.colliders.size());
+    const std::size_t colliderCount = world.colliders.size();
     // v = p / m (+ FLIP: the stress impulse / m, the velocity before forces kept as the
     // reference in its place) + dt g.
     auto withForces = [&](float m, const float* momentum, float* impulseInReferenceOut) {
@@ -164,27 +167,33 @@ void updateGridVelocity(World& world, float dt) {
                                   : Vec3f(Vec3f::Zero());
                         const Vec3f xn = nodePosition(key, i, j, k, world.dx, world.dim);
                         if (lower && upper) {
-                            const FieldVelocities both = resolveSlipContact(
-                                mass[n], vn, mUpper, vUpper, slipNormal(world, xn),
-                                world.slipFriction, x[layout.bond()] > 0.5f);
+                            const Vec3f& normal =
+                                contacts.slipNormal(b, n, [&] { return slipNormal(world, xn); });
+                            const FieldVelocities both =
+                                resolveSlipContact(mass[n], vn, mUpper, vUpper, normal,
+                                                   world.slipFriction, x[layout.bond()] > 0.5f);
                             vn = both.lower, vUpper = both.upper;
                         }
                         if (lower) {
                             // Sticky colliders were evaluated by the fold: their held nodes stop.
                             if (walls.isHeld(b, n)) vn = Vec3f::Zero();
-                            for (const Collider& c : world.colliders)
-                                if (!c.mirrorsInside() && !c.clearOf(xn, tolerance) &&
-                                    c.signedDistance(xn) <= tolerance)
-                                    vn = c.applyBoundary(vn, c.normal(xn));
+                            for (std::size_t c = 0; c < colliderCount; ++c) {
+                                const Collider& collider = world.colliders[c];
+                                if (collider.mirrorsInside()) continue;
+                                if (const Vec3f* normal =
+                                        contacts.contact(b, n, c, collider, xn, tolerance))
+                                    vn = collider.applyBoundary(vn, *normal);
+                            }
                             v[0] = vn[0], v[1] = vn[1], v[2] = vn[2];
                         }
                         if (upper) {
                             // The upper field has no mirror: inside or on a sticky collider (and
                             // at the lower field's ghosts) it stops, as a zeroed node.
                             if (ghost) vUpper = Vec3f::Zero();
-                            for (const Collider& c : world.colliders)
-                                if (!c.clearOf(xn, tolerance) && c.signedDistance(xn) <= tolerance)
-                                    vUpper = c.applyBoundary(vUpper, c.normal(xn));
+                            for (std::size_t c = 0; c < colliderCount; ++c)
+                                if (const Vec3f* normal = contacts.contact(
+                                        b, n, c, world.colliders[c], xn, tolerance))
+                                    vUpper = world.colliders[c].applyBoundary(vUpper, *normal);
                             for (int c = 0; c < 3; ++c) vUpperOut[c] = vUpper[c];
                         }
                     }
