@@ -24,13 +24,13 @@ STAGES = [
     ("plasticity", r"applyPlasticity|hencky|staysElastic|leftStretch|leftEigen|svd|selfadjoint|"
                    r"returnMap|projectCamClay|camClay|kirchhoff|mohrCoulomb|frictionAngle|"
                    r"inertialNumber|markFractureTime|__expm1|__log|__sinh|__cosh|__atan2|"
-                   r"__sincos|__cos|__sin|__exp|__pow|__ieee754|elasticFastPath"),
+                   r"__sincos|__cos|__sin|__exp|__pow|__ieee754|elasticFastPath|Hencky|seriesBatch"),
     ("grid update", r"updateGridVelocity|StickyWalls|Collider::|nearestOnProfile|heightAt|"
-                    r"gradientAt|Heightfield|resolveSlipContact|slipNormal|applyBoundary"),
+                    r"gradientAt|Heightfield|resolveSlipContact|slipNormal|applyBoundary|NodeContacts"),
     ("re-bucketing", r"bucketByLeaf|gatherInPlace|merge_sort|__merge|introsort|"
                      r"__insertion_sort|stable_sort|leafOf|__memmove|__memcpy"),
-    ("sleep pass", r"updateSleep|meanBlockVelocity"),
-    ("basal drag", r"applyBasalDrag|unordered_map|_Hashtable|_Hash_node"),
+    ("sleep pass", r"updateSleep|meanBlockVelocity|neighbourLeaves"),
+    ("basal drag", r"applyBasalDrag|BasalDrag|unordered_map|_Hashtable|_Hash_node"),
     ("diagnostics, trackers", r"computeDiagnostics|Diagnostics|Tracker|tracking|CrackArrival|"
                               r"SlabFracture|PeakFields|peak|StabilityWatch|kineticEnergy"),
     ("output", r"openvdb|vdb|Vdb|blosc|LZ4|lz4|zlib|deflate|png|Metrics|Json|writeFile|"
