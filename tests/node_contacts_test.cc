@@ -45,12 +45,12 @@ int compareAll(World& world, NodeContacts& contacts, float reach) {
                 const Collider& collider = world.colliders[c];
                 const bool within =
                     !collider.clearOf(xn, reach) && collider.signedDistance(xn) <= reach;
-                const Vec3f* normal = contacts.contact(b, n, c, collider, xn, reach);
-                REQUIRE((normal != nullptr) == within);
+                const auto normal = contacts.contact(b, n, c, collider, xn, reach);
+                REQUIRE(normal.has_value() == within);
                 if (!within) continue;
                 ++inContact;
                 REQUIRE(*normal == collider.normal(xn));
-                REQUIRE(contacts.contact(b, n, c, collider, xn, reach) == normal); // kept
+                REQUIRE(*contacts.contact(b, n, c, collider, xn, reach) == *normal); // kept
             }
         }
     return inContact;
@@ -66,8 +66,28 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
         const float reach = world->dx; // a cell: more nodes in contact than the solver asks
         NodeContacts contacts;
         world->grid.rebuild(ps, 0);
-        contacts.bind(world->grid, world->colliders.size());
-        REQUIRE(compareAll(*world, contacts, reach) > 0);
+        contacts.bind(world->grid, world->colliders.size(), false);
+        const int inContact = compareAll(*world, contacts, reach);
+        REQUIRE(inContact > 0);
+        // Normals are kept for the nodes in contact only: 2 bytes a node and collider, 12 a
+        // normal (twice that for a vector's growth), where a record per node took 16.
+        const std::size_t slots = world->colliders.size();
+        INFO("stored " << contacts.storedBytes() << " bytes, " << inContact << " in contact");
+        REQUIRE(contacts.storedBytes() <=
+                world->grid.blockCount() * kLeafNodes * slots * 2 + 24 * std::size_t(inContact));
+        // The slip surface's normal: computed on the first ask, then kept.
+        contacts.bind(world->grid, world->colliders.size(), true);
+        int computed = 0;
+        for (int pass = 0; pass < 2; ++pass)
+            for (int n = 0; n < kLeafNodes; n += 7) {
+                const Vec3f normal = contacts.slipNormal(0, n, [&] {
+                    ++computed;
+                    return Vec3f(0.f, 1.f, float(n));
+                });
+                REQUIRE(normal == Vec3f(0.f, 1.f, float(n)));
+            }
+        REQUIRE(computed == (kLeafNodes + 6) / 7);
+        REQUIRE(compareAll(*world, contacts, reach) == inContact);
         // Move the snow a leaf and a half down-slope, step by step: leaves come and go, blocks
         // are renumbered, and the leaves that stay answer from the store. Then far away (the
         // store drops the leaves left behind) and back.
@@ -76,7 +96,7 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
             for (Vec3f& x : ps.x) x += shift;
             ps.bucketByLeaf();
             world->grid.rebuild(ps, 0);
-            contacts.bind(world->grid, world->colliders.size());
+            contacts.bind(world->grid, world->colliders.size(), false);
             compareAll(*world, contacts, reach);
         }
         const Vec3f leap(8.f * world->dx, 0.f, 0.f);
@@ -84,7 +104,7 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
             for (Vec3f& x : ps.x) x += leap;
             ps.bucketByLeaf();
             world->grid.rebuild(ps, 0);
-            contacts.bind(world->grid, world->colliders.size());
+            contacts.bind(world->grid, world->colliders.size(), false);
         }
         // The wake is let go: 150 leaves' worth of blocks were bound, few are kept.
         INFO("stored " << contacts.storedLeaves() << ", blocks " << world->grid.blockCount());
@@ -94,10 +114,10 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
         for (Vec3f& x : ps.x) x -= 150.f * leap;
         ps.bucketByLeaf();
         world->grid.rebuild(ps, 0);
-        contacts.bind(world->grid, world->colliders.size());
+        contacts.bind(world->grid, world->colliders.size(), false);
         REQUIRE(compareAll(*world, contacts, reach) > 0);
         // Another set of colliders: the store starts again.
-        contacts.bind(world->grid, 1);
+        contacts.bind(world->grid, 1, false);
         world->colliders.resize(1);
         REQUIRE(compareAll(*world, contacts, reach) > 0);
     }

@@ -22,12 +22,14 @@ constexpr std::uint64_t kKeepUnused = 64;
 
 } // namespace
 
+struct NodeContacts::Leaf {
+    std::vector<std::uint16_t> states; ///< kLeafNodes x mSlots
+    std::vector<Vec3f> normals;        ///< of the nodes in contact, in the order first asked
+    std::uint64_t lastBound = 0;
+};
+
 struct NodeContacts::Leaves {
-    struct Leaf {
-        std::vector<Record> records;
-        std::uint64_t lastBound = 0;
-    };
-    std::unordered_map<LeafKey, Leaf, LeafKeyHash> byKey; // node-based: records stay put
+    std::unordered_map<LeafKey, Leaf, LeafKeyHash> byKey; // node-based: leaves stay put
     std::uint64_t binds = 0;
 };
 
@@ -46,33 +48,57 @@ std::size_t NodeContacts::storedLeaves() const {
     return mLeaves->byKey.size();
 }
 
-void NodeContacts::bind(const Grid& grid, std::size_t colliderCount) {
-    if (colliderCount != mColliderCount) clear();
+std::size_t NodeContacts::storedBytes() const {
+    std::size_t bytes = 0;
+    for (const auto& [key, leaf] : mLeaves->byKey)
+        bytes += leaf.states.capacity() * sizeof(std::uint16_t) +
+                 leaf.normals.capacity() * sizeof(Vec3f);
+    return bytes;
+}
+
+void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSurface) {
+    const std::size_t slots = colliderCount + (slipSurface ? 1 : 0);
+    if (colliderCount != mColliderCount || slots != mSlots) clear();
     mColliderCount = colliderCount;
+    mSlots = slots;
     Leaves& leaves = *mLeaves;
     const std::uint64_t now = ++leaves.binds;
     const std::size_t blocks = grid.blockCount();
     mBlocks.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b) {
-        Leaves::Leaf& leaf = leaves.byKey[grid.blockKey(b)];
-        if (leaf.records.empty()) leaf.records.resize(kLeafNodes * (colliderCount + 1));
+        Leaf& leaf = leaves.byKey[grid.blockKey(b)];
+        if (leaf.states.empty()) leaf.states.assign(kLeafNodes * slots, kUnknown);
         leaf.lastBound = now;
-        mBlocks[b] = leaf.records.data();
+        mBlocks[b] = &leaf;
     }
     if (leaves.byKey.size() <= 2 * blocks + 256) return;
     for (auto it = leaves.byKey.begin(); it != leaves.byKey.end();)
         it = it->second.lastBound + kKeepUnused < now ? leaves.byKey.erase(it) : std::next(it);
 }
 
-const Vec3f* NodeContacts::contact(std::size_t b, int n, std::size_t c, const Collider& collider,
-                                   const Vec3f& xn, float reach) {
-    Record& r = record(b, n, c);
-    if (r.state == kUnknown) {
+std::uint16_t& NodeContacts::state(std::size_t b, int n, std::size_t slot) {
+    return mBlocks[b]->states[std::size_t(n) * mSlots + slot];
+}
+
+std::uint16_t NodeContacts::keep(std::size_t b, const Vec3f& normal) {
+    std::vector<Vec3f>& normals = mBlocks[b]->normals;
+    normals.push_back(normal);
+    return std::uint16_t(kInContact + normals.size() - 1); // at most 512 x slots of them
+}
+
+const Vec3f& NodeContacts::normalOf(std::size_t b, std::uint16_t state) const {
+    return mBlocks[b]->normals[state - kInContact];
+}
+
+std::optional<Vec3f> NodeContacts::contact(std::size_t b, int n, std::size_t c,
+                                           const Collider& collider, const Vec3f& xn, float reach) {
+    std::uint16_t& s = state(b, n, c);
+    if (s == kUnknown) {
         const bool within = !collider.clearOf(xn, reach) && collider.signedDistance(xn) <= reach;
-        if (within) r.normal = collider.normal(xn);
-        r.state = within ? kInContact : kClear;
+        s = within ? keep(b, collider.normal(xn)) : std::uint16_t(kClear);
     }
-    return r.state == kInContact ? &r.normal : nullptr;
+    if (s == kClear) return std::nullopt;
+    return normalOf(b, s);
 }
 
 } // namespace firn

@@ -125,7 +125,7 @@ void updateGridVelocity(World& world, float dt) {
     const StickyWalls& walls = world.stickyWalls;
     const float tolerance = kContactTolerance * world.dx;
     NodeContacts& contacts = world.nodeContacts;
-    contacts.bind(grid, world.colliders.size());
+    contacts.bind(grid, world.colliders.size(), layout.twoFields);
     const std::size_t colliderCount = world.colliders.size();
     // v = p / m (+ FLIP: the stress impulse / m, the velocity before forces kept as the
     // reference in its place) + dt g.
@@ -167,7 +167,7 @@ void updateGridVelocity(World& world, float dt) {
                                   : Vec3f(Vec3f::Zero());
                         const Vec3f xn = nodePosition(key, i, j, k, world.dx, world.dim);
                         if (lower && upper) {
-                            const Vec3f& normal =
+                            const Vec3f normal =
                                 contacts.slipNormal(b, n, [&] { return slipNormal(world, xn); });
                             const FieldVelocities both =
                                 resolveSlipContact(mass[n], vn, mUpper, vUpper, normal,
@@ -180,7 +180,7 @@ void updateGridVelocity(World& world, float dt) {
                             for (std::size_t c = 0; c < colliderCount; ++c) {
                                 const Collider& collider = world.colliders[c];
                                 if (collider.mirrorsInside()) continue;
-                                if (const Vec3f* normal =
+                                if (const auto normal =
                                         contacts.contact(b, n, c, collider, xn, tolerance))
                                     vn = collider.applyBoundary(vn, *normal);
                             }
@@ -191,7 +191,7 @@ void updateGridVelocity(World& world, float dt) {
                             // at the lower field's ghosts) it stops, as a zeroed node.
                             if (ghost) vUpper = Vec3f::Zero();
                             for (std::size_t c = 0; c < colliderCount; ++c)
-                                if (const Vec3f* normal = contacts.contact(
+                                if (const auto normal = contacts.contact(
                                         b, n, c, world.colliders[c], xn, tolerance))
                                     vUpper = world.colliders[c].applyBoundary(vUpper, *normal);
                             for (int c = 0; c < 3; ++c) vUpperOut[c] = vUpper[c];
