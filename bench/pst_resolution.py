@@ -6,7 +6,7 @@ at several grid spacings and slope angles, beside the closed form of Gaume et al
         [--firn build/firn] [--set key=value ...] [--criterion run|onset] [--ac-only | --speed-only]
         [--speed-column 6] [--speed-cut 0.8] [--bracket 0 0.8] [--steps 5]
         [--weak-thickness 0.06] [--ac-end-time 0.2] [--speed-time-per-metre 0.05]
-        [--threads N] [--out DIR]
+        [--threads N] [--out DIR] [--scene SCENE.toml] [--ac-column 3]
 
 For each dx and slope: the critical cut length by bisection (0-0.8 m, to 2.5 cm; --bracket and
 --steps narrow it: a result at a bracket's end means a_c lies outside it) on a 3 m column with
@@ -25,7 +25,10 @@ layer stays 0.06 m thick, so it spans 2 to 4 cells over the default spacings; pa
 stay 4. --weak-thickness T gives the layer another thickness with the PST layer's collapse energy
 per unit area: the scene's softening times T over its thickness (100 T / 0.06), and
 softening_length T, so that the crack band scales the softening wherever its 6 cells are thinner
-than T (docs/snow.md, Resolution); the closed form takes D_wl = T.
+than T (docs/snow.md, Resolution); the closed form takes D_wl = T. --scene runs another PST
+scene whose layers are bodies "weak" and "slab" with a cut in "weak" (bench/pst_slope3d_layers.toml:
+scenes/slope3d.toml's layers); the closed form, for pst.toml's slab and layer, is then left out.
+--ac-column sets the bisection's column length (default 3 m; longer for cuts near it).
 """
 import argparse
 import csv
@@ -42,10 +45,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 THREADS = []
+SCENE = [os.path.join(ROOT, "scenes", "pst.toml")]
 
 
 def run(firn, overrides, out, extra=()):
-    args = [firn, "run", os.path.join(ROOT, "scenes", "pst.toml"), "--quiet", "--out", out,
+    args = [firn, "run", SCENE[0], "--quiet", "--out", out,
             *THREADS,
             "--set", "output.particles=false", "--set", "output.volumes=[]"]
     for o in list(extra) + list(overrides):
@@ -139,9 +143,8 @@ def bisect_cut(bracket, steps, runs_at):
 
 
 def critical_cut(firn, dx, slope, work, extra=(), criterion="run", steps=5, bracket=(0.0, 0.8),
-                 end_time=0.2):
+                 end_time=0.2, length=3.0):
     seconds = 0.0
-    length = 3.0
 
     def runs_at(cut, i):
         nonlocal seconds
@@ -188,25 +191,38 @@ def main():
                         help="weak layer thickness in m, its softening scaled (default 0.06)")
     parser.add_argument("--threads", type=int, help="threads per run (default: all cores)")
     parser.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "pst-resolution"))
+    parser.add_argument("--scene", help="another PST scene (default scenes/pst.toml)")
+    parser.add_argument("--ac-column", type=float, default=3.0,
+                        help="the bisection's column length, m (default 3)")
     args = parser.parse_args()
+    if args.scene:
+        SCENE[0] = os.path.abspath(args.scene)
     results_dir = args.out
     if args.threads:
         THREADS.extend(["--threads", str(args.threads)])
-    args.overrides = weak_thickness_overrides(args.weak_thickness) + args.overrides
+    if args.scene:
+        with open(SCENE[0], "rb") as f:
+            weak_thickness = next(b for b in tomllib.load(f)["body"]
+                                  if b["name"] == "weak")["thickness"]
+    else:
+        weak_thickness = args.weak_thickness
+        args.overrides = weak_thickness_overrides(args.weak_thickness) + args.overrides
     os.makedirs(results_dir, exist_ok=True)
     rows = []
     with tempfile.TemporaryDirectory() as work:
         for dx in args.dx:
             for slope in args.slopes:
                 row = {"dx": dx, "slope": slope,
-                       "cells_in_weak_layer": round(args.weak_thickness / dx, 2),
+                       "cells_in_weak_layer": round(weak_thickness / dx, 2),
                        "criterion": args.criterion, "overrides": " ".join(args.overrides)}
                 if not args.speed_only:
                     stays, runs, t_ac = critical_cut(args.firn, dx, slope, work, args.overrides,
                                                      args.criterion, args.steps,
-                                                     tuple(args.bracket), args.ac_end_time)
+                                                     tuple(args.bracket), args.ac_end_time,
+                                                     args.ac_column)
                     row.update({"a_c_low": round(stays, 4), "a_c_high": round(runs, 4),
                                 "a_c_closed_form":
+                                    "" if args.scene else
                                     round(closed_form_ac(slope, D_wl=args.weak_thickness), 4),
                                 "wall_seconds_ac": round(t_ac, 1)})
                 if not args.ac_only:

@@ -110,6 +110,20 @@ check('the cut is at the down-slope end of the 3 m column',
           for c in calls), f'{len(calls)} runs')
 check('the scene overrides reach every run', all('k=v' in c for c in calls), f'{len(calls)} runs')
 
+# --ac-column: the bisection on a longer column (bench/pst_slope3d_layers.toml's cuts reach
+# 1.6 m), the cut still at its down-slope end and the layers as long as the column.
+calls.clear()
+pst.run, pst.up_slope_reach = fake_run, lambda out, tip, dx: 0.0 if 8.0 - tip >= 1.03 else math.inf
+try:
+    stays, runs, _ = pst.critical_cut('firn', 0.05, 26.8, '/nonexistent', [], 'run', 5,
+                                      (0.0, 1.6), end_time=0.3, length=8.0)
+finally:
+    pst.run, pst.up_slope_reach = real_run, real_reach
+check('an 8 m column brackets its critical cut', stays < 1.03 <= runs, f'{stays}-{runs} m')
+check('the cut is at the down-slope end of the 8 m column',
+      all(abs(override(c, 'cut.weak.from_x') + override(c, 'cut.weak.length') - 8.0) < 1e-9
+          and 'body.slab.x_range=[0.0, 8.0]' in c for c in calls), f'{len(calls)} runs')
+
 with open(os.path.join(ROOT, 'scenes', 'pst.toml'), 'rb') as f:
     scene = tomllib.load(f)
 thickness = next(b for b in scene['body'] if b['name'] == 'weak')['thickness']
