@@ -467,6 +467,21 @@ inline Vec3f meanBlockVelocity(const Grid& grid, std::int32_t b, const AuxLayout
     return total > 0.f ? Vec3f(momentum / total) : Vec3f(Vec3f::Zero());
 }
 
+/// G2P's update of C and H = Fe - I in plane strain, from C's in-plane entries c_ab: only the
+/// upper-left 2 x 2 blocks of C and dt C H are non-zero there (C's third row and column are,
+/// and H's off-plane entries stay, zero), so four entries are updated instead of nine with
+/// 3 x 3 products. H_zz is unchanged: plane strain.
+inline void updateAffinePlane(float c00, float c01, float c10, float c11, float dt, Mat3f& C,
+                              Mat3f& H) {
+    C << c00, c01, 0.f, c10, c11, 0.f, 0.f, 0.f, 0.f;
+    const float d00 = dt * c00, d01 = dt * c01, d10 = dt * c10, d11 = dt * c11;
+    const float h00 = H(0, 0), h01 = H(0, 1), h10 = H(1, 0), h11 = H(1, 1);
+    H(0, 0) = h00 + (d00 + (d00 * h00 + d01 * h10));
+    H(0, 1) = h01 + (d01 + (d00 * h01 + d01 * h11));
+    H(1, 0) = h10 + (d10 + (d10 * h00 + d11 * h10));
+    H(1, 1) = h11 + (d11 + (d10 * h01 + d11 * h11));
+}
+
 template <int Dim, bool Flip>
 float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const float invDx = 1.f / ps.dx;
@@ -524,18 +539,25 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                 // The particle's new velocity, affine matrix, position and F; false on NaN.
                 const auto update = [&](std::uint32_t i, const Vec3f& vPic, const Mat3f& B,
                                         const Vec3f& dvFlip) {
-                    const Mat3f C = cScale * B;
-                    ps.C[i] = C;
                     // XPIC: the reference is v^L - v* (xpicReference), the increment its update.
-                    ps.v[i] = !Flip  ? vPic
-                              : xpic ? dvFlip
-                                     : Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic);
+                    const Vec3f vNew = !Flip ? vPic
+                                       : xpic
+                                           ? dvFlip
+                                           : Vec3f(flip * (ps.v[i] + dvFlip) + (1.f - flip) * vPic);
+                    ps.v[i] = vNew;
                     ps.x[i] += dt * vPic;
                     // Fe <- (I + dt C) Fe, as H <- H + dt C (I + H) so that a strain increment
                     // far below float spacing at 1 is kept (ParticleSet::H).
-                    const Mat3f dtC = dt * C;
-                    ps.H[i] += dtC + dtC * ps.H[i];
-                    const float speed = ps.v[i].norm();
+                    if constexpr (Dim == 2)
+                        updateAffinePlane(cScale * B(0, 0), cScale * B(0, 1), cScale * B(1, 0),
+                                          cScale * B(1, 1), dt, ps.C[i], ps.H[i]);
+                    else {
+                        const Mat3f C = cScale * B;
+                        ps.C[i] = C;
+                        const Mat3f dtC = dt * C;
+                        ps.H[i] += dtC + dtC * ps.H[i];
+                    }
+                    const float speed = vNew.norm();
                     if (speed > kMovedSpeed) ps.plastic[i].flags |= kFlagMoved;
                     // NaN compares false: make it win the reduction so the caller sees it.
                     maxSpeed = speed == speed ? std::max(maxSpeed, speed)
