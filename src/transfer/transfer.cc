@@ -64,6 +64,25 @@ template <int NC, int UpperAt> struct PaddedLayout {
     static constexpr int lanes = lowerLanes + upperLanes;
 };
 
+using Lanes4 = float __attribute__((vector_size(4 * sizeof(float))));
+using Lanes8 = float __attribute__((vector_size(8 * sizeof(float))));
+
+/// Copies Width floats (a multiple of 4) to `out` as whole 8- and 4-float vector stores built
+/// from the scalars in registers, so that an Eigen packet load of them is forwarded from the
+/// stores (each load within one store) instead of waiting for them to reach the cache.
+template <int Width> inline void storeWhole(const float* in, float* out) {
+    int q = 0;
+    for (; q + 8 <= Width; q += 8) {
+        const Lanes8 v = {in[q],     in[q + 1], in[q + 2], in[q + 3],
+                          in[q + 4], in[q + 5], in[q + 6], in[q + 7]};
+        __builtin_memcpy(out + q, &v, sizeof(v));
+    }
+    for (; q + 4 <= Width; q += 4) {
+        const Lanes4 v = {in[q], in[q + 1], in[q + 2], in[q + 3]};
+        __builtin_memcpy(out + q, &v, sizeof(v));
+    }
+}
+
 /// Adds one particle's contribution to Width channels of the padded block (value zero past the
 /// particle's own channels), whose nodes are Stride floats apart: one packet per node. The value
 /// at node (a, b, c) is value + affine (node - particle) = (value - affine fx) + a col0 + b col1
@@ -72,13 +91,23 @@ template <int NC, int UpperAt> struct PaddedLayout {
 template <int Dim, int Width, bool Affine, int AffineAt, int Stride>
 inline void scatterParticle(const Stencil& s, const float* value, const Mat3f& affine, float* buf) {
     using Packet = Eigen::Matrix<float, Width, 1>;
-    Packet base = Eigen::Map<const Packet>(value);
-    Packet col[3] = {Packet::Zero(), Packet::Zero(), Packet::Zero()};
+    // The packets are assembled from scalars and stored whole (storeWhole) before Eigen loads
+    // them: lanes written one by one into an Eigen packet in memory and then loaded as one
+    // packet stall on store forwarding (perf of slope2d's P2G: about a third of its set-up).
+    float lanes[Width], colLanes[3][Width] = {};
+    for (int ch = 0; ch < Width; ++ch) lanes[ch] = value[ch];
     if (Affine) {
         const Vec3f shift = affine * Vec3f(s.fx[0], s.fx[1], Dim == 3 ? s.fx[2] : 0.f);
-        for (int ch = 0; ch < 3; ++ch) base[AffineAt + ch] -= shift[ch];
-        for (int k = 0; k < 3; ++k) col[k].template segment<3>(AffineAt) = affine.col(k);
+        for (int ch = 0; ch < 3; ++ch) lanes[AffineAt + ch] -= shift[ch];
+        for (int k = 0; k < 3; ++k)
+            for (int ch = 0; ch < 3; ++ch) colLanes[k][AffineAt + ch] = affine(ch, k);
     }
+    alignas(32) float staged[4][Width];
+    storeWhole<Width>(lanes, staged[0]);
+    for (int k = 0; k < 3; ++k) storeWhole<Width>(colLanes[k], staged[1 + k]);
+    Packet base = Eigen::Map<const Packet>(staged[0]);
+    const Packet col[3] = {Eigen::Map<const Packet>(staged[1]), Eigen::Map<const Packet>(staged[2]),
+                           Eigen::Map<const Packet>(staged[3])};
     constexpr int nc = Dim == 3 ? 3 : 1;
     for (int a = 0; a < 3; ++a) {
         for (int b = 0; b < 3; ++b) {
