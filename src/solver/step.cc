@@ -202,6 +202,72 @@ void updateGridVelocity(World& world, float dt) {
     walls.mirror(grid, flip);
 }
 
+namespace {
+
+/// The snow's columns of dx over a bed (x in 2D; x and z in 3D): the volume over each and whether
+/// it touches the bed. A particle's column and its nearness to the bed are found in parallel;
+/// the volumes are then summed serially in particle order (so bitwise the same for any thread
+/// count), into a dense array over the particles' box of columns, or a hash map where that box
+/// is far larger than the particle count (snow scattered far apart).
+class BedColumns {
+public:
+    BedColumns(const ParticleSet& ps, const Collider& bed, float dx, bool is3d)
+        : mColumnX(ps.size())
+        , mColumnZ(ps.size())
+        , mNearBed(ps.size()) {
+        const std::size_t n = ps.size();
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, n, 2048),
+            [&](const auto& r) {
+                for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                    mColumnX[i] = std::int64_t(std::floor(ps.x[i][0] / dx));
+                    mColumnZ[i] = is3d ? std::int64_t(std::floor(ps.x[i][2] / dx)) : 0;
+                    mNearBed[i] = bed.signedDistance(ps.x[i]) < dx;
+                }
+            },
+            tbb::simple_partitioner());
+        if (n == 0) return;
+        mMinX = *std::min_element(mColumnX.begin(), mColumnX.end());
+        mMinZ = *std::min_element(mColumnZ.begin(), mColumnZ.end());
+        mSpanX = *std::max_element(mColumnX.begin(), mColumnX.end()) - mMinX + 1;
+        const std::int64_t spanZ = *std::max_element(mColumnZ.begin(), mColumnZ.end()) - mMinZ + 1;
+        mDense = mSpanX * spanZ <= std::int64_t(8 * n + 65536);
+        if (mDense) mColumns.resize(std::size_t(mSpanX * spanZ));
+        for (std::size_t i = 0; i < n; ++i) {
+            Column& c = mDense ? mColumns[denseIndex(i)] : mScattered[key(i)];
+            c.volume += ps.volume0[i];
+            c.onBed = c.onBed || mNearBed[i];
+        }
+    }
+    /// The column of particle i: its snow's volume (m^3, 2D: m^2) and whether it touches the bed.
+    double volume(std::size_t i) const { return column(i).volume; }
+    bool onBed(std::size_t i) const { return column(i).onBed; }
+
+private:
+    struct Column {
+        double volume = 0.0;
+        bool onBed = false;
+    };
+    std::size_t denseIndex(std::size_t i) const {
+        return std::size_t((mColumnZ[i] - mMinZ) * mSpanX + (mColumnX[i] - mMinX));
+    }
+    std::int64_t key(std::size_t i) const {
+        return (mColumnX[i] << 32) ^ (mColumnZ[i] & 0xffffffff);
+    }
+    const Column& column(std::size_t i) const {
+        return mDense ? mColumns[denseIndex(i)] : mScattered.find(key(i))->second;
+    }
+
+    std::vector<std::int64_t> mColumnX, mColumnZ;
+    std::vector<std::uint8_t> mNearBed;
+    std::int64_t mMinX = 0, mMinZ = 0, mSpanX = 0;
+    bool mDense = true;
+    std::vector<Column> mColumns;
+    std::unordered_map<std::int64_t, Column> mScattered;
+};
+
+} // namespace
+
 void applyBasalDrag(World& world, float dt) {
     const float g = world.gravity.norm();
     const Collider* bed = nullptr;
@@ -212,33 +278,18 @@ void applyBasalDrag(World& world, float dt) {
     ParticleSet& ps = world.particles;
     const float dx = world.dx;
     const bool is3d = world.dim == 3;
-    // Columns of dx (x 2D; x, z 3D): the snow's volume over each, and whether it touches the bed.
-    struct Column {
-        double volume = 0.0;
-        bool onBed = false;
-    };
-    std::unordered_map<std::int64_t, Column> columns;
-    std::vector<std::int64_t> columnOf(ps.size());
-    for (std::size_t i = 0; i < ps.size(); ++i) {
-        const std::int64_t ix = std::int64_t(std::floor(ps.x[i][0] / dx));
-        const std::int64_t iz = is3d ? std::int64_t(std::floor(ps.x[i][2] / dx)) : 0;
-        columnOf[i] = (ix << 32) ^ (iz & 0xffffffff);
-        Column& c = columns[columnOf[i]];
-        c.volume += ps.volume0[i];
-        c.onBed = c.onBed || bed->signedDistance(ps.x[i]) < dx;
-    }
+    const BedColumns columns(ps, *bed, dx, is3d);
     const float area = is3d ? dx * dx : dx; // 2D: per metre of depth
     tbb::parallel_for(
         tbb::blocked_range<std::size_t>(0, ps.size(), 2048),
         [&](const auto& r) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 if (ps.asleep(i)) continue;
-                const Column& c = columns.find(columnOf[i])->second;
-                if (!c.onBed) continue; // airborne snow feels no bed
+                if (!columns.onBed(i)) continue; // airborne snow feels no bed
                 const Vec3f n = bed->normal(ps.x[i]);
                 // Flow thickness normal to the bed: the column's vertical thickness times
                 // cos(slope).
-                const float h = float(c.volume / area) * std::max(n[1], 0.05f);
+                const float h = float(columns.volume(i) / area) * std::max(n[1], 0.05f);
                 ps.v[i] = drag.applied(ps.v[i], n, h, world.materials[ps.material[i]].density,
                                        world.gravity, dt);
             }
