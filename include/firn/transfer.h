@@ -51,9 +51,24 @@ struct AuxLayout {
     int channels() const { return twoFields ? bond() + 1 : (flip ? 3 : 0); }
 };
 
+/// The nodes of a leaf's padded block (10^d nodes, the leaf's 8 and two more along each axis)
+/// that its particles' stencils reach, per axis lo..hi inclusive; empty when lo > hi.
+struct NodeBox {
+    int lo[3] = {1 << 20, 1 << 20, 1 << 20};
+    int hi[3] = {-1, -1, -1};
+    bool empty() const { return lo[0] > hi[0]; }
+};
+
+/// The scatter phase's padded blocks, one per particle leaf, and the nodes each one reached:
+/// only those are zeroed and merged.
+struct PaddedBlocks {
+    std::vector<float> values;
+    std::vector<NodeBox> boxes;
+};
+
 /// Reusable per-leaf padded blocks of the scatter phase.
 struct TransferScratch {
-    std::vector<float> padded;
+    PaddedBlocks padded;
     std::vector<float> xpicTerm, xpicSum; ///< XPIC's grid fields, 3 per node
     std::vector<Vec3f> xpicAtParticles;   ///< XPIC's grid term interpolated to the particles
 };

@@ -45,6 +45,31 @@ template <int Dim> inline Stencil stencilOf(const Vec3f& x, float invDx, const L
     return s;
 }
 
+/// NodeBox of the particles of leaf l for which include(i) holds. A thin flow fills few of a
+/// leaf's cells (`path3d`: 174 particles in 4 096 cells), and the padded block's zeroing, the
+/// merge and G2P's gather then touch only these nodes.
+template <int Dim, typename IncludeFn>
+NodeBox nodeBoxOf(const ParticleSet& ps, std::size_t l, float invDx, IncludeFn&& include) {
+    NodeBox box;
+    int lo[3] = {kPad, kPad, kPad}, hi[3] = {-1, -1, -1};
+    static_assert(kPad < (1 << 20), "NodeBox's empty lo");
+    for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+        if (!include(i)) continue;
+        for (int a = 0; a < Dim; ++a) {
+            const int base = static_cast<int>(std::floor(ps.x[i][a] * invDx - 0.5f)) -
+                             ps.leaves[l][a] * kLeafDim;
+            lo[a] = std::min(lo[a], base);
+            hi[a] = std::max(hi[a], base + 2);
+        }
+    }
+    if (lo[0] > hi[0]) return box;
+    for (int a = 0; a < 3; ++a) {
+        box.lo[a] = a < Dim ? lo[a] : 0;
+        box.hi[a] = a < Dim ? hi[a] : 0;
+    }
+    return box;
+}
+
 /// Floats per node of a padded P2G block with NC channels: NC rounded up to whole packets of 4,
 /// so that a particle adds all of a node's channels as SSE or AVX packets (the extra channels
 /// stay zero).
@@ -235,19 +260,27 @@ inline void gatherParticlePair(const Stencil& sa, const float* localA, const Ste
 /// skipDeepSleepers, leaves in deep sleep (ParticleSet::SleepLevel) scatter nothing: no awake
 /// particle reads those nodes.
 template <int Dim, int NC, bool Affine, int AffineAt, int UpperAt = NC, typename ParticleFn>
-void scatterLeaves(const ParticleSet& ps, std::vector<float>& padded, bool skipDeepSleepers,
+void scatterLeaves(const ParticleSet& ps, PaddedBlocks& padded, bool skipDeepSleepers,
                    ParticleFn&& fn) {
     using Layout = PaddedLayout<NC, UpperAt>;
     constexpr int lanes = Layout::lanes;
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * lanes;
-    padded.resize(ps.leafCount() * stride);
+    padded.values.resize(ps.leafCount() * stride);
+    padded.boxes.resize(ps.leafCount());
     const float invDx = 1.f / ps.dx;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), [&](const auto& r) {
         for (std::size_t l = r.begin(); l != r.end(); ++l) {
-            // Each leaf zeroes its own block: in parallel, and into the cache it scatters in.
-            float* buf = padded.data() + l * stride;
-            std::fill_n(buf, stride, 0.f);
+            NodeBox& box = padded.boxes[l];
+            box = NodeBox{};
             if (skipDeepSleepers && ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
+            box = nodeBoxOf<Dim>(ps, l, invDx, [](std::uint32_t) { return true; });
+            // Each leaf zeroes its own block's reached nodes (the merge reads no others): in
+            // parallel, and into the cache it scatters in.
+            float* buf = padded.values.data() + l * stride;
+            for (int a = box.lo[0]; a <= box.hi[0]; ++a)
+                for (int b = box.lo[1]; b <= box.hi[1]; ++b)
+                    std::fill_n(buf + lanes * paddedIndex<Dim>(a, b, box.lo[2]),
+                                lanes * (box.hi[2] - box.lo[2] + 1), 0.f);
             for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                 const Stencil s = stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]);
                 float value[lanes] = {};
@@ -289,7 +322,7 @@ template <int Dim, typename Fn> inline void forEachNode(Fn&& fn) {
 /// Merge phase: every grid block sums its overlapping padded blocks in the fixed order
 /// o = 0 .. 2^Dim - 1 into acc[512 * packedChannels<NC>()], then hands it to sink(b, acc).
 template <int Dim, int NC, typename SinkFn>
-void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& sink) {
+void mergeBlocks(const Grid& grid, const PaddedBlocks& padded, SinkFn&& sink) {
     constexpr int PC = packedChannels<NC>();
     const std::size_t stride = std::size_t(paddedNodes<Dim>()) * PC;
     const auto& sources = grid.particleLeavesOfBlock();
@@ -300,15 +333,24 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
             for (int o = 0; o < (1 << Dim); ++o) {
                 const std::int32_t l = sources[b][o];
                 if (l < 0) continue;
-                const float* src = padded.data() + std::size_t(l) * stride;
-                const int kEnd = Dim == 3 ? overlapEnd(o, 2) : 1;
-                for (int i = 0; i < overlapEnd(o, 0); ++i)
-                    for (int j = 0; j < overlapEnd(o, 1); ++j)
-                        for (int k = 0; k < kEnd; ++k) {
-                            const float* s = src + PC * paddedIndex<Dim>(i + overlapShift(o, 0),
-                                                                         j + overlapShift(o, 1),
-                                                                         k + overlapShift(o, 2));
-                            float* d = acc + PC * leafOffset(i, j, k);
+                const float* src = padded.values.data() + std::size_t(l) * stride;
+                // The overlap of the source's reached nodes with this block, in the source's
+                // padded coordinates (nodes outside it hold zero: adding them changed nothing).
+                const NodeBox& box = padded.boxes[std::size_t(l)];
+                int from[3], to[3];
+                for (int a = 0; a < 3; ++a) {
+                    const int shift = a < Dim ? overlapShift(o, a) : 0;
+                    const int end = a < Dim ? overlapEnd(o, a) : 1;
+                    from[a] = std::max(shift, box.lo[a]);
+                    to[a] = std::min(shift + end - 1, box.hi[a]);
+                }
+                for (int i = from[0]; i <= to[0]; ++i)
+                    for (int j = from[1]; j <= to[1]; ++j)
+                        for (int k = from[2]; k <= to[2]; ++k) {
+                            const float* s = src + PC * paddedIndex<Dim>(i, j, k);
+                            float* d = acc + PC * leafOffset(i - overlapShift(o, 0),
+                                                             j - overlapShift(o, 1),
+                                                             Dim == 3 ? k - overlapShift(o, 2) : 0);
                             // one packet add per node (a loop over channels stayed scalar:
                             // the compiler could not rule out that acc and src overlap)
                             Eigen::Map<Eigen::Matrix<float, PC, 1>>(d) +=
@@ -324,19 +366,29 @@ void mergeBlocks(const Grid& grid, const std::vector<float>& padded, SinkFn&& si
 /// is block b's first node) of the 2^Dim blocks around particle leaf l into a padded local array
 /// (10^Dim nodes of `channels` floats), so that G2P reads without per-node block lookups.
 template <int Dim, typename FieldFn>
-void gatherPadded(const Grid& grid, std::size_t l, FieldFn&& field, int sourceChannels,
-                  int channelOffset, int channels, float* out) {
+void gatherPadded(const Grid& grid, std::size_t l, const NodeBox& box, FieldFn&& field,
+                  int sourceChannels, int channelOffset, int channels, float* out) {
     const auto& blocks = grid.blocksOfParticleLeaf()[l];
     for (int o = 0; o < (1 << Dim); ++o) {
+        // The overlap of block o with the nodes the particles read, in padded coordinates.
+        int from[3], to[3];
+        for (int a = 0; a < 3; ++a) {
+            const int shift = a < Dim ? overlapShift(o, a) : 0;
+            const int end = a < Dim ? overlapEnd(o, a) : 1;
+            from[a] = std::max(shift, box.lo[a]);
+            to[a] = std::min(shift + end - 1, box.hi[a]);
+        }
+        if (from[0] > to[0] || from[1] > to[1] || from[2] > to[2]) continue;
         const float* src = field(std::size_t(blocks[o]));
-        const int kEnd = Dim == 3 ? overlapEnd(o, 2) : 1;
-        for (int i = 0; i < overlapEnd(o, 0); ++i)
-            for (int j = 0; j < overlapEnd(o, 1); ++j)
-                for (int k = 0; k < kEnd; ++k) {
-                    const float* s = src + sourceChannels * leafOffset(i, j, k) + channelOffset;
-                    float* d = out + channels * paddedIndex<Dim>(i + overlapShift(o, 0),
-                                                                 j + overlapShift(o, 1),
-                                                                 k + overlapShift(o, 2));
+        for (int i = from[0]; i <= to[0]; ++i)
+            for (int j = from[1]; j <= to[1]; ++j)
+                for (int k = from[2]; k <= to[2]; ++k) {
+                    const float* s =
+                        src +
+                        sourceChannels * leafOffset(i - overlapShift(o, 0), j - overlapShift(o, 1),
+                                                    Dim == 3 ? k - overlapShift(o, 2) : 0) +
+                        channelOffset;
+                    float* d = out + channels * paddedIndex<Dim>(i, j, k);
                     for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
                     if (channels > 3) d[3] = 0.f; // G2P's packets: a defined lane past the three
                 }
@@ -345,11 +397,13 @@ void gatherPadded(const Grid& grid, std::size_t l, FieldFn&& field, int sourceCh
 
 /// FLIP's padded block: lanes 4-6 of every node from the reference velocity to the increment
 /// v - v_ref that G2P adds to the particle's velocity.
-template <int Dim> void toIncrement(float* local) {
-    for (int n = 0; n < paddedNodes<Dim>(); ++n) {
-        float* node = local + 8 * n;
-        for (int c = 0; c < 3; ++c) node[4 + c] = node[c] - node[4 + c];
-    }
+template <int Dim> void toIncrement(const NodeBox& box, float* local) {
+    for (int a = box.lo[0]; a <= box.hi[0]; ++a)
+        for (int b = box.lo[1]; b <= box.hi[1]; ++b)
+            for (int c = box.lo[2]; c <= box.hi[2]; ++c) {
+                float* node = local + 8 * paddedIndex<Dim>(a, b, c);
+                for (int ch = 0; ch < 3; ++ch) node[4 + ch] = node[ch] - node[4 + ch];
+            }
 }
 
 Mat3f toMatrix(const Sym3f& t) {
@@ -547,21 +601,24 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                     if (ps.asleep(i)) continue;
                     (ps.plastic[i].flags & kFlagUpperField ? readsUpper : readsLower) = true;
                 }
+                // Only the nodes that the awake particles' stencils reach.
+                const NodeBox box =
+                    nodeBoxOf<Dim>(ps, l, invDx, [&](std::uint32_t i) { return !ps.asleep(i); });
                 if (readsLower) {
-                    gatherPadded<Dim>(grid, l, velocityField, 3, 0, channels, local);
+                    gatherPadded<Dim>(grid, l, box, velocityField, 3, 0, channels, local);
                     if (Flip) {
-                        gatherPadded<Dim>(grid, l, auxField, auxStride, layout.lowerReference(),
-                                          channels, local + 4);
-                        toIncrement<Dim>(local);
+                        gatherPadded<Dim>(grid, l, box, auxField, auxStride,
+                                          layout.lowerReference(), channels, local + 4);
+                        toIncrement<Dim>(box, local);
                     }
                 }
                 if (readsUpper) {
-                    gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperVelocity(),
+                    gatherPadded<Dim>(grid, l, box, auxField, auxStride, layout.upperVelocity(),
                                       channels, upperLocal);
                     if (Flip) {
-                        gatherPadded<Dim>(grid, l, auxField, auxStride, layout.upperReference(),
-                                          channels, upperLocal + 4);
-                        toIncrement<Dim>(upperLocal);
+                        gatherPadded<Dim>(grid, l, box, auxField, auxStride,
+                                          layout.upperReference(), channels, upperLocal + 4);
+                        toIncrement<Dim>(box, upperLocal);
                     }
                 }
                 const auto localOf = [&](std::uint32_t i) {
@@ -683,7 +740,9 @@ void xpic(const ParticleSet& ps, const Grid& grid, const TransferParams& params,
                 float local[paddedNodes<Dim>() * 3];
                 for (std::size_t l = r.begin(); l != r.end(); ++l) {
                     if (ps.leafSleepLevel(l) == ParticleSet::kDeep) continue;
-                    gatherPadded<Dim>(grid, l, termField, 3, 0, 3, local);
+                    const NodeBox box =
+                        nodeBoxOf<Dim>(ps, l, invDx, [](std::uint32_t) { return true; });
+                    gatherPadded<Dim>(grid, l, box, termField, 3, 0, 3, local);
                     for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i)
                         atParticles[i] =
                             interpolate<Dim>(stencilOf<Dim>(ps.x[i], invDx, ps.leaves[l]), local);
