@@ -138,7 +138,9 @@ void updateSleep(World& world, float dt) {
             const bool wake = (moving || motion[l].pushed) && motion[l].anyAsleep;
             const bool fallAsleep = !moving && allQuiet && motion[l].anyAwake;
             woken[l] = wake;
-            for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
+            // A leaf that neither wakes nor falls asleep changes no particle: skip the pass.
+            for (std::uint32_t i = ps.leafStart[l]; (wake || fallAsleep) && i < ps.leafStart[l + 1];
+                 ++i) {
                 PlasticState& s = ps.plastic[i];
                 if (wake && (s.flags & kFlagAsleep)) {
                     ps.tau[i] = ps.stress(i);
