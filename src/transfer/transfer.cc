@@ -308,6 +308,29 @@ inline int overlapShift(int o, int axisBit) {
     return (o >> axisBit) & 1 ? kLeafDim : 0;
 }
 
+/// The padded nodes (per axis from..to inclusive) that both overlap grid block o of a particle
+/// leaf (o's bit a: the block one leaf up along axis a) and lie in `box`.
+struct PaddedRange {
+    int from[3], to[3];
+    bool empty() const { return from[0] > to[0] || from[1] > to[1] || from[2] > to[2]; }
+};
+template <int Dim> PaddedRange overlapInBox(int o, const NodeBox& box) {
+    PaddedRange r;
+    for (int a = 0; a < 3; ++a) {
+        const int shift = a < Dim ? overlapShift(o, a) : 0;
+        const int end = a < Dim ? overlapEnd(o, a) : 1;
+        r.from[a] = std::max(shift, box.lo[a]);
+        r.to[a] = std::min(shift + end - 1, box.hi[a]);
+    }
+    return r;
+}
+
+/// The node of grid block o (as in overlapInBox) at padded node (i, j, k).
+template <int Dim> int blockNodeOfPadded(int o, int i, int j, int k) {
+    return leafOffset(i - overlapShift(o, 0), j - overlapShift(o, 1),
+                      Dim == 3 ? k - overlapShift(o, 2) : 0);
+}
+
 /// Calls fn(n) for the nodes of a grid block that a Dim-dimensional run uses: all 512 in 3D,
 /// the 64 of its z = 0 plane in 2D (the others stay zero: nothing scatters to them).
 template <int Dim, typename Fn> inline void forEachNode(Fn&& fn) {
@@ -336,21 +359,12 @@ void mergeBlocks(const Grid& grid, const PaddedBlocks& padded, SinkFn&& sink) {
                 const float* src = padded.values.data() + std::size_t(l) * stride;
                 // The overlap of the source's reached nodes with this block, in the source's
                 // padded coordinates (nodes outside it hold zero: adding them changed nothing).
-                const NodeBox& box = padded.boxes[std::size_t(l)];
-                int from[3], to[3];
-                for (int a = 0; a < 3; ++a) {
-                    const int shift = a < Dim ? overlapShift(o, a) : 0;
-                    const int end = a < Dim ? overlapEnd(o, a) : 1;
-                    from[a] = std::max(shift, box.lo[a]);
-                    to[a] = std::min(shift + end - 1, box.hi[a]);
-                }
-                for (int i = from[0]; i <= to[0]; ++i)
-                    for (int j = from[1]; j <= to[1]; ++j)
-                        for (int k = from[2]; k <= to[2]; ++k) {
+                const PaddedRange range = overlapInBox<Dim>(o, padded.boxes[std::size_t(l)]);
+                for (int i = range.from[0]; i <= range.to[0]; ++i)
+                    for (int j = range.from[1]; j <= range.to[1]; ++j)
+                        for (int k = range.from[2]; k <= range.to[2]; ++k) {
                             const float* s = src + PC * paddedIndex<Dim>(i, j, k);
-                            float* d = acc + PC * leafOffset(i - overlapShift(o, 0),
-                                                             j - overlapShift(o, 1),
-                                                             Dim == 3 ? k - overlapShift(o, 2) : 0);
+                            float* d = acc + PC * blockNodeOfPadded<Dim>(o, i, j, k);
                             // one packet add per node (a loop over channels stayed scalar:
                             // the compiler could not rule out that acc and src overlap)
                             Eigen::Map<Eigen::Matrix<float, PC, 1>>(d) +=
@@ -371,23 +385,14 @@ void gatherPadded(const Grid& grid, std::size_t l, const NodeBox& box, FieldFn&&
     const auto& blocks = grid.blocksOfParticleLeaf()[l];
     for (int o = 0; o < (1 << Dim); ++o) {
         // The overlap of block o with the nodes the particles read, in padded coordinates.
-        int from[3], to[3];
-        for (int a = 0; a < 3; ++a) {
-            const int shift = a < Dim ? overlapShift(o, a) : 0;
-            const int end = a < Dim ? overlapEnd(o, a) : 1;
-            from[a] = std::max(shift, box.lo[a]);
-            to[a] = std::min(shift + end - 1, box.hi[a]);
-        }
-        if (from[0] > to[0] || from[1] > to[1] || from[2] > to[2]) continue;
+        const PaddedRange range = overlapInBox<Dim>(o, box);
+        if (range.empty()) continue;
         const float* src = field(std::size_t(blocks[o]));
-        for (int i = from[0]; i <= to[0]; ++i)
-            for (int j = from[1]; j <= to[1]; ++j)
-                for (int k = from[2]; k <= to[2]; ++k) {
+        for (int i = range.from[0]; i <= range.to[0]; ++i)
+            for (int j = range.from[1]; j <= range.to[1]; ++j)
+                for (int k = range.from[2]; k <= range.to[2]; ++k) {
                     const float* s =
-                        src +
-                        sourceChannels * leafOffset(i - overlapShift(o, 0), j - overlapShift(o, 1),
-                                                    Dim == 3 ? k - overlapShift(o, 2) : 0) +
-                        channelOffset;
+                        src + sourceChannels * blockNodeOfPadded<Dim>(o, i, j, k) + channelOffset;
                     float* d = out + channels * paddedIndex<Dim>(i, j, k);
                     for (int ch = 0; ch < 3; ++ch) d[ch] = s[ch];
                     if (channels > 3) d[3] = 0.f; // G2P's packets: a defined lane past the three
