@@ -116,6 +116,33 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
         world->grid.rebuild(ps, 0);
         contacts.bind(world->grid, world->colliders.size(), false);
         REQUIRE(compareAll(*world, contacts, reach) > 0);
+        // The colliders as sticky walls (StickyWalls::fold): each node's side, and inside, its
+        // mirror point, bitwise the collider's, asked twice (the second answer is kept), beside
+        // the contacts of the same colliders.
+        contacts.bind(world->grid, world->colliders.size(), false, true);
+        int sides[3] = {0, 0, 0};
+        for (int pass = 0; pass < 2; ++pass)
+            for (std::size_t b = 0; b < world->grid.blockCount(); ++b)
+                for (int n = 0; n < kLeafNodes; ++n) {
+                    if (dim == 2 && (n & 7)) continue;
+                    const Vec3f xn = nodePosition(world->grid.blockKey(b), n >> 6, (n >> 3) & 7,
+                                                  n & 7, world->dx, dim);
+                    for (std::size_t c = 0; c < world->colliders.size(); ++c) {
+                        const Collider& collider = world->colliders[c];
+                        const float phi = collider.signedDistance(xn);
+                        const auto side = contacts.wallSide(b, n, c, collider, xn, reach);
+                        const auto expected = phi > reach     ? NodeContacts::WallSide::kOutside
+                                              : phi >= -reach ? NodeContacts::WallSide::kOnSurface
+                                                              : NodeContacts::WallSide::kInside;
+                        REQUIRE(side.kind == expected);
+                        if (side.kind == NodeContacts::WallSide::kInside)
+                            REQUIRE(side.mirror == xn - 2.f * phi * collider.normal(xn));
+                        ++sides[side.kind];
+                    }
+                }
+        REQUIRE(sides[NodeContacts::WallSide::kOnSurface] > 0);
+        REQUIRE(sides[NodeContacts::WallSide::kInside] > 0);
+        REQUIRE(compareAll(*world, contacts, reach) > 0);
         // Another set of colliders: the store starts again.
         contacts.bind(world->grid, 1, false);
         world->colliders.resize(1);

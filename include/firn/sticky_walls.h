@@ -20,6 +20,7 @@
 
 #include <firn/collider.h>
 #include <firn/grid.h>
+#include <firn/node_contacts.h>
 
 #include <cstdint>
 #include <vector>
@@ -28,12 +29,13 @@ namespace firn {
 
 class StickyWalls {
 public:
-    /// Classifies the nodes with mass against the sticky colliders among `colliders`, and folds
-    /// the ghosts' mass, momentum (Grid::velocity) and, for FLIP, stress impulse (Grid::aux) into
-    /// their mirror nodes. `gravityImpulse` is dt g (ramped): the fold moves the ghosts' weight
-    /// onto the mirror nodes with the constraint's sign. Call after P2G, before the update.
-    void fold(const std::vector<Collider>& colliders, Grid& grid, float dx, int dim, bool flip,
-              const Vec3f& gravityImpulse);
+    /// Classifies the nodes with mass against the sticky colliders among `colliders` (their
+    /// sides kept in `contacts`, bound to `grid` with wall sides), and folds the ghosts' mass,
+    /// momentum (Grid::velocity) and, for FLIP, stress impulse (Grid::aux) into their mirror
+    /// nodes. `gravityImpulse` is dt g (ramped): the fold moves the ghosts' weight onto the
+    /// mirror nodes with the constraint's sign. Call after P2G, before the update.
+    void fold(const std::vector<Collider>& colliders, Grid& grid, NodeContacts& contacts, float dx,
+              int dim, bool flip, const Vec3f& gravityImpulse);
 
     /// True for a ghost: a node inside a sticky collider whose mirror point has free nodes
     /// around it. The update skips it; mirror() sets it. Nodes on a sticky surface, and ghosts

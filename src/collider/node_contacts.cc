@@ -1,5 +1,7 @@
 #include <firn/node_contacts.h>
 
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 
 namespace firn {
@@ -56,11 +58,19 @@ std::size_t NodeContacts::storedBytes() const {
     return bytes;
 }
 
-void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSurface) {
-    const std::size_t slots = colliderCount + (slipSurface ? 1 : 0);
-    if (colliderCount != mColliderCount || slots != mSlots) clear();
+void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSurface,
+                        bool wallSides) {
+    const std::size_t wallSlots = wallSides ? colliderCount : 0;
+    const std::size_t slots = colliderCount + wallSlots + (slipSurface ? 1 : 0);
+    if (slots > 127)
+        throw std::runtime_error("too many colliders for the grid's contact store (" +
+                                 std::to_string(colliderCount) + "; at most 63 with sticky walls)");
+    const std::size_t slipSlot = colliderCount + wallSlots;
+    if (colliderCount != mColliderCount || slots != mSlots || slipSlot != mSlipSlot) clear();
     mColliderCount = colliderCount;
     mSlots = slots;
+    mWallSlot = colliderCount;
+    mSlipSlot = slipSlot;
     Leaves& leaves = *mLeaves;
     const std::uint64_t now = ++leaves.binds;
     const std::size_t blocks = grid.blockCount();
@@ -99,6 +109,26 @@ std::optional<Vec3f> NodeContacts::contact(std::size_t b, int n, std::size_t c,
     }
     if (s == kClear) return std::nullopt;
     return normalOf(b, s);
+}
+
+NodeContacts::WallSide NodeContacts::wallSide(std::size_t b, int n, std::size_t c,
+                                              const Collider& collider, const Vec3f& xn,
+                                              float tolerance) {
+    std::uint16_t& s = state(b, n, mWallSlot + c);
+    if (s == kUnknown) {
+        s = kClear;
+        if (!collider.clearOf(xn, tolerance)) {
+            const float phi = collider.signedDistance(xn);
+            if (phi >= -tolerance && phi <= tolerance)
+                s = kOnSurface;
+            else if (phi < -tolerance)
+                s = keep(b, xn - 2.f * phi * collider.normal(xn));
+        }
+    }
+    WallSide side;
+    if (s == kOnSurface) side.kind = WallSide::kOnSurface;
+    if (s >= kInContact) side = {WallSide::kInside, normalOf(b, s)};
+    return side;
 }
 
 } // namespace firn

@@ -7,17 +7,18 @@
 
 namespace firn {
 
-void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float dx, int dim,
-                       bool flip, const Vec3f& gravityImpulse) {
+void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, NodeContacts& contacts,
+                       float dx, int dim, bool flip, const Vec3f& gravityImpulse) {
     mState.clear();
     mGhosts.clear();
-    std::vector<const Collider*> sticky;
-    for (const Collider& c : colliders)
-        if (c.mirrorsInside()) sticky.push_back(&c);
+    std::vector<std::size_t> sticky; // indices into colliders
+    for (std::size_t c = 0; c < colliders.size(); ++c)
+        if (colliders[c].mirrorsInside()) sticky.push_back(c);
     if (sticky.empty()) return;
 
     // Classify the nodes with mass; the ghosts of each block in node order, so that the list
-    // (and the serial fold below) has the same order whatever the thread count.
+    // (and the serial fold below) has the same order whatever the thread count. A node's side
+    // of each wall depends on its position alone: the contact store keeps it across steps.
     const std::size_t nb = grid.blockCount();
     mState.assign(nb * kLeafNodes, kFree);
     std::vector<std::vector<Ghost>> ghostsOfBlock(nb);
@@ -35,17 +36,17 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, float
                         const Vec3f x = nodePosition(key, i, j, k, dx, dim);
                         std::uint8_t state = kFree;
                         Vec3f mirrorPoint = Vec3f::Zero();
-                        for (const Collider* c : sticky) {
-                            if (c->clearOf(x, tolerance)) continue;
-                            const float phi = c->signedDistance(x);
-                            if (phi > tolerance) continue;
-                            if (phi >= -tolerance) { // on the surface: at rest
+                        for (std::size_t c : sticky) {
+                            const NodeContacts::WallSide side =
+                                contacts.wallSide(b, n, c, colliders[c], x, tolerance);
+                            if (side.kind == NodeContacts::WallSide::kOutside) continue;
+                            if (side.kind == NodeContacts::WallSide::kOnSurface) { // at rest
                                 state = kHeld;
                                 break;
                             }
                             if (state == kFree) {
                                 state = kGhost;
-                                mirrorPoint = x - 2.f * phi * c->normal(x);
+                                mirrorPoint = side.mirror;
                             }
                         }
                         mState[b * kLeafNodes + std::size_t(n)] = state;

@@ -121,11 +121,13 @@ void updateGridVelocity(World& world, float dt) {
     const float ramp =
         world.gravityRamp > 0.f ? std::min(1.f, float(world.time) / world.gravityRamp) : 1.f;
     const Vec3f dv = (dt * ramp) * world.gravity;
-    world.stickyWalls.fold(world.colliders, grid, world.dx, world.dim, flip, dv);
+    NodeContacts& contacts = world.nodeContacts;
+    const bool wallSides = std::any_of(world.colliders.begin(), world.colliders.end(),
+                                       [](const Collider& c) { return c.mirrorsInside(); });
+    contacts.bind(grid, world.colliders.size(), layout.twoFields, wallSides);
+    world.stickyWalls.fold(world.colliders, grid, contacts, world.dx, world.dim, flip, dv);
     const StickyWalls& walls = world.stickyWalls;
     const float tolerance = kContactTolerance * world.dx;
-    NodeContacts& contacts = world.nodeContacts;
-    contacts.bind(grid, world.colliders.size(), layout.twoFields);
     const std::size_t colliderCount = world.colliders.size();
     // v = p / m (+ FLIP: the stress impulse / m, the velocity before forces kept as the
     // reference in its place) + dt g.
