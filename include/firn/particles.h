@@ -85,7 +85,8 @@ struct ParticleSet {
              int materialIndex, const PlasticState& state);
     /// Sorts particles into leaves (stable, deterministic for any thread count). Cheap when
     /// few particles change leaf, which is the common case at CFL-limited steps. Leaves `tau`
-    /// undefined: recompute it (applyPlasticity) before the next P2G.
+    /// undefined (its bytes are the sort's scratch): recompute it (applyPlasticity) before the
+    /// next P2G.
     void bucketByLeaf();
     /// Allocates room for n particles in every array.
     void reserve(std::size_t n);
@@ -95,10 +96,6 @@ struct ParticleSet {
     ParticleSet extractFlagged(std::uint32_t flags);
     /// Moves every particle of `other` to the end of this set (unbucketed: call bucketByLeaf).
     void append(ParticleSet&& other);
-
-private:
-    std::vector<std::uint32_t> mOrder;   // scratch: gather order of the last bucketing
-    std::vector<unsigned char> mScratch; // scratch: one attribute during the gather
 };
 
 /// Block of the base node of a particle at x (quadratic B-spline stencil base).

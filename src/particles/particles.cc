@@ -131,44 +131,97 @@ void ParticleSet::append(ParticleSet&& other) {
 
 namespace {
 
-/// Gathers a[k] = a[order[k]] for k in `range` (order is the identity outside it) in parallel
-/// through `scratch`, Stride bytes per element, in slices of at most Stride bytes when the
-/// element is larger. No scratch is allocated: the caller lends the stress array, which is
-/// recomputed after bucketing. The slice sizes are compile-time constants, so each copy is a few
-/// moves, not a call to memcpy: bucketing runs every step and copies every particle's state
-/// twice.
-template <std::size_t Stride, std::size_t Offset = 0, typename T>
-void gatherInPlace(std::vector<T>& a, const std::vector<std::uint32_t>& order,
-                   const tbb::blocked_range<std::size_t>& range, unsigned char* scratch) {
-    constexpr std::size_t len = std::min(Stride, sizeof(T) - Offset);
-    unsigned char* base = reinterpret_cast<unsigned char*>(a.data());
-    const tbb::blocked_range<std::size_t> chunks(range.begin(), range.end(), 4096);
-    tbb::parallel_for(chunks, [&](const auto& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k)
-            std::memcpy(scratch + k * len, base + order[k] * sizeof(T) + Offset, len);
-    });
-    tbb::parallel_for(chunks, [&](const auto& r) {
-        for (std::size_t k = r.begin(); k != r.end(); ++k)
-            std::memcpy(base + k * sizeof(T) + Offset, scratch + k * len, len);
-    });
-    if constexpr (Offset + Stride < sizeof(T))
-        gatherInPlace<Stride, Offset + Stride>(a, order, range, scratch);
+/// The stress array's bytes lent to bucketing (the stress is recomputed after it, applyPlasticity):
+/// 24 a particle, of which the gather order takes the first 4 n, the direction codes the next n
+/// while the order is built, then the gather's scratch 20 a particle. Nothing is allocated per
+/// step for it (the order once was a member array: 4 bytes a particle more at the memory peak).
+/// Accessed by memcpy: the storage holds floats.
+class LentBytes {
+public:
+    LentBytes(std::vector<Sym3f>& tau, std::size_t n)
+        : mBytes(reinterpret_cast<unsigned char*>(tau.data()))
+        , mN(n) {
+        static_assert(sizeof(Sym3f) == kOrderBytes + kScratchStride);
+    }
+    static constexpr std::size_t kOrderBytes = sizeof(std::uint32_t);
+    static constexpr std::size_t kScratchStride = 20; ///< gather bytes a particle and pass
+    std::uint32_t order(std::size_t k) const {
+        std::uint32_t i;
+        std::memcpy(&i, mBytes + kOrderBytes * k, kOrderBytes);
+        return i;
+    }
+    void setOrder(std::size_t k, std::uint32_t i) {
+        std::memcpy(mBytes + kOrderBytes * k, &i, kOrderBytes);
+    }
+    unsigned char* codes() { return mBytes + kOrderBytes * mN; }
+    unsigned char* scratch() { return mBytes + kOrderBytes * mN; }
+
+private:
+    unsigned char* mBytes;
+    std::size_t mN;
+};
+
+/// Bytes [Offset, Offset + Len) of each element of an attribute array: a piece of a gather pass.
+template <std::size_t Offset, std::size_t Len, typename T> struct Slice {
+    static constexpr std::size_t kLen = Len;
+    static_assert(Offset + Len <= sizeof(T));
+    std::vector<T>* array;
+    /// Copies element `from`'s bytes to `out` and advances it.
+    void read(std::size_t from, unsigned char*& out) const {
+        std::memcpy(out, reinterpret_cast<const unsigned char*>(array->data() + from) + Offset,
+                    Len);
+        out += Len;
+    }
+    /// Copies `in`'s bytes to element `to` and advances it.
+    void write(std::size_t to, const unsigned char*& in) const {
+        std::memcpy(reinterpret_cast<unsigned char*>(array->data() + to) + Offset, in, Len);
+        in += Len;
+    }
+};
+template <std::size_t Offset, std::size_t Len, typename T>
+Slice<Offset, Len, T> slice(std::vector<T>& a) {
+    return {&a};
 }
 
-/// The part of the arrays that a gather in `order` changes: from its first to its last k with
-/// order[k] != k. A few particles crossing into a neighbouring leaf move only the particles
+/// Gathers a[k] = a[order[k]] for k in `range` (order is the identity outside it) for every
+/// slice at once, in parallel through the lent scratch. The slice sizes are compile-time
+/// constants, so each copy is a few moves, not a call to memcpy; and attributes share passes
+/// (one per 20 bytes of a particle's state instead of one per attribute): bucketing runs every
+/// step, and each pass is two parallel loops with a join between them.
+template <typename... Slices>
+void gatherPass(LentBytes& lent, const tbb::blocked_range<std::size_t>& range, Slices... slices) {
+    constexpr std::size_t width = (Slices::kLen + ...);
+    static_assert(width <= LentBytes::kScratchStride);
+    unsigned char* scratch = lent.scratch();
+    const tbb::blocked_range<std::size_t> chunks(range.begin(), range.end(), 4096);
+    tbb::parallel_for(chunks, [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            unsigned char* out = scratch + k * width;
+            (slices.read(lent.order(k), out), ...);
+        }
+    });
+    tbb::parallel_for(chunks, [&](const auto& r) {
+        for (std::size_t k = r.begin(); k != r.end(); ++k) {
+            const unsigned char* in = scratch + k * width;
+            (slices.write(k, in), ...);
+        }
+    });
+}
+
+/// The part of the arrays that a gather in the lent order changes: from its first to its last k
+/// with order(k) != k. A few particles crossing into a neighbouring leaf move only the particles
 /// between the two leaves; a body at rest, or settling, moves next to none.
-tbb::blocked_range<std::size_t> movedRange(const std::vector<std::uint32_t>& order) {
-    std::size_t first = 0, last = order.size();
-    while (first < last && order[first] == first) ++first;
-    while (last > first && order[last - 1] == last - 1) --last;
+tbb::blocked_range<std::size_t> movedRange(const LentBytes& lent, std::size_t n) {
+    std::size_t first = 0, last = n;
+    while (first < last && lent.order(first) == first) ++first;
+    while (last > first && lent.order(last - 1) == last - 1) --last;
     return tbb::blocked_range<std::size_t>(first, last);
 }
 
 // Initial bucketing of unsorted particles: a stable sort by leaf key.
-void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t>& order,
+void sortFromScratch(const std::vector<LeafKey>& keys, LentBytes& lent,
                      std::vector<LeafKey>& leaves, std::vector<std::uint32_t>& leafStart) {
-    order.resize(keys.size());
+    std::vector<std::uint32_t> order(keys.size());
     std::iota(order.begin(), order.end(), 0u);
     std::stable_sort(order.begin(), order.end(),
                      [&](std::uint32_t a, std::uint32_t b) { return keys[a] < keys[b]; });
@@ -181,6 +234,7 @@ void sortFromScratch(const std::vector<LeafKey>& keys, std::vector<std::uint32_t
         }
     }
     leafStart.push_back(static_cast<std::uint32_t>(order.size()));
+    for (std::size_t k = 0; k < order.size(); ++k) lent.setOrder(k, order[k]);
 }
 
 /// Per-leaf values of `newLeaves` from those of the same keys in `oldLeaves` (`fresh` for new
@@ -203,10 +257,11 @@ std::vector<T> carryByKey(const std::vector<LeafKey>& oldLeaves, const std::vect
 void ParticleSet::bucketByLeaf() {
     const float invDx = 1.f / dx;
     const std::size_t n = size();
+    LentBytes lent(tau, n);
     if (leaves.empty()) {
         std::vector<LeafKey> keys(n);
         for (std::size_t i = 0; i < n; ++i) keys[i] = leafOf(x[i], invDx, dim);
-        sortFromScratch(keys, mOrder, leaves, leafStart);
+        sortFromScratch(keys, lent, leaves, leafStart);
         leafQuietSteps.clear();
         leafSleep.clear();
         leafPush.clear();
@@ -216,7 +271,7 @@ void ParticleSet::bucketByLeaf() {
         // each leaf sends particles to its 27 neighbours (direction codes); rare far movers are
         // placed serially. The new order is by old leaf, then old order: deterministic.
         const std::size_t nl = leafCount();
-        std::vector<std::uint8_t> code(n);
+        unsigned char* code = lent.codes();
         std::vector<std::array<std::uint32_t, kDirections>> count(nl);
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
@@ -271,7 +326,6 @@ void ParticleSet::bucketByLeaf() {
         std::vector<std::uint32_t> cursor(newStart.begin(), newStart.end() - 1);
         std::vector<std::array<std::uint32_t, kDirections>> first(nl);
         std::size_t f = 0;
-        mOrder.resize(n);
         for (std::size_t l = 0; l < nl; ++l) {
             for (int c = 0; c < kDirections; ++c) {
                 if (count[l][c] == 0) continue;
@@ -279,13 +333,13 @@ void ParticleSet::bucketByLeaf() {
                 cursor[dest[l][c]] += count[l][c];
             }
             for (; f < far.size() && far[f].second < leafStart[l + 1]; ++f)
-                mOrder[cursor[farDest[f]]++] = far[f].second;
+                lent.setOrder(cursor[farDest[f]]++, far[f].second);
         }
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
                 auto next = first[l];
                 for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i)
-                    if (code[i] != kFar) mOrder[next[code[i]]++] = i;
+                    if (code[i] != kFar) lent.setOrder(next[code[i]]++, i);
             }
         });
         leafQuietSteps = carryByKey(leaves, leafQuietSteps, newLeaves, std::uint16_t(0));
@@ -295,18 +349,18 @@ void ParticleSet::bucketByLeaf() {
         leaves.swap(newLeaves);
         leafStart.swap(newStart);
     }
-    // The stress array is the scratch: it is recomputed from H after every bucketing.
-    unsigned char* scratch = reinterpret_cast<unsigned char*>(tau.data());
-    constexpr std::size_t stride = sizeof(Sym3f);
-    const tbb::blocked_range<std::size_t> range = movedRange(mOrder);
-    gatherInPlace<stride>(x, mOrder, range, scratch);
-    gatherInPlace<stride>(v, mOrder, range, scratch);
-    gatherInPlace<stride>(C, mOrder, range, scratch);
-    gatherInPlace<stride>(H, mOrder, range, scratch);
-    gatherInPlace<stride>(mass, mOrder, range, scratch);
-    gatherInPlace<stride>(volume0, mOrder, range, scratch);
-    gatherInPlace<stride>(material, mOrder, range, scratch);
-    gatherInPlace<stride>(plastic, mOrder, range, scratch);
+    // 128 bytes of state a particle in seven passes of at most 20 (the sizes are checked: an
+    // attribute that grows, or a new one, needs its slices here).
+    static_assert(sizeof(Vec3f) == 12 && sizeof(Mat3f) == 36 && sizeof(float) == 4 &&
+                  sizeof(std::int32_t) == 4 && sizeof(PlasticState) == 20);
+    const tbb::blocked_range<std::size_t> range = movedRange(lent, n);
+    gatherPass(lent, range, slice<0, 12>(x), slice<0, 4>(mass), slice<0, 4>(volume0));
+    gatherPass(lent, range, slice<0, 12>(v), slice<0, 4>(material));
+    gatherPass(lent, range, slice<0, 20>(C));
+    gatherPass(lent, range, slice<20, 16>(C));
+    gatherPass(lent, range, slice<0, 20>(H));
+    gatherPass(lent, range, slice<20, 16>(H));
+    gatherPass(lent, range, slice<0, 20>(plastic));
 }
 
 } // namespace firn
