@@ -116,32 +116,44 @@ TEST_CASE("Node contacts kept per leaf answer as the colliders do, as the grid m
         world->grid.rebuild(ps, 0);
         contacts.bind(world->grid, world->colliders.size(), false);
         REQUIRE(compareAll(*world, contacts, reach) > 0);
-        // The colliders as sticky walls (StickyWalls::fold): each node's side, and inside, its
-        // mirror point, bitwise the collider's, asked twice (the second answer is kept), beside
-        // the contacts of the same colliders.
-        contacts.bind(world->grid, world->colliders.size(), false, true);
-        int sides[3] = {0, 0, 0};
+        // The sticky walls' nodes (StickyWalls::fold): every node of a leaf (2D: its plane's)
+        // classified once, on the first ask, listed in node order, and kept: the second pass
+        // asks nothing and gets the same lists.
+        const Collider& wall = world->colliders[0];
+        const auto isOnWall = [&](const LeafKey& key, int n, NodeContacts::WallNode& node) {
+            const Vec3f xn = nodePosition(key, n >> 6, (n >> 3) & 7, n & 7, world->dx, dim);
+            const float phi = wall.signedDistance(xn);
+            node.ghost = phi < -reach;
+            node.mirror = xn - 2.f * phi * wall.normal(xn);
+            return phi <= reach;
+        };
+        const int planeNodes = dim == 3 ? kLeafNodes : kLeafDim * kLeafDim;
+        int asked = 0, ghosts = 0, held = 0;
         for (int pass = 0; pass < 2; ++pass)
-            for (std::size_t b = 0; b < world->grid.blockCount(); ++b)
-                for (int n = 0; n < kLeafNodes; ++n) {
-                    if (dim == 2 && (n & 7)) continue;
-                    const Vec3f xn = nodePosition(world->grid.blockKey(b), n >> 6, (n >> 3) & 7,
-                                                  n & 7, world->dx, dim);
-                    for (std::size_t c = 0; c < world->colliders.size(); ++c) {
-                        const Collider& collider = world->colliders[c];
-                        const float phi = collider.signedDistance(xn);
-                        const auto side = contacts.wallSide(b, n, c, collider, xn, reach);
-                        const auto expected = phi > reach     ? NodeContacts::WallSide::kOutside
-                                              : phi >= -reach ? NodeContacts::WallSide::kOnSurface
-                                                              : NodeContacts::WallSide::kInside;
-                        REQUIRE(side.kind == expected);
-                        if (side.kind == NodeContacts::WallSide::kInside)
-                            REQUIRE(side.mirror == xn - 2.f * phi * collider.normal(xn));
-                        ++sides[side.kind];
-                    }
+            for (std::size_t b = 0; b < world->grid.blockCount(); ++b) {
+                const LeafKey key = world->grid.blockKey(b);
+                const auto& walls =
+                    contacts.wallNodes(b, dim, [&](int n, NodeContacts::WallNode& node) {
+                        ++asked;
+                        REQUIRE((dim == 3 || (n & 7) == 0));
+                        return isOnWall(key, n, node);
+                    });
+                std::size_t next = 0;
+                for (int n = 0; n < kLeafNodes; n += dim == 3 ? 1 : kLeafDim) {
+                    NodeContacts::WallNode expected;
+                    if (!isOnWall(key, n, expected)) continue;
+                    REQUIRE(next < walls.size());
+                    REQUIRE(walls[next].node == n);
+                    REQUIRE(walls[next].ghost == expected.ghost);
+                    if (expected.ghost) REQUIRE(walls[next].mirror == expected.mirror);
+                    ++(expected.ghost ? ghosts : held);
+                    ++next;
                 }
-        REQUIRE(sides[NodeContacts::WallSide::kOnSurface] > 0);
-        REQUIRE(sides[NodeContacts::WallSide::kInside] > 0);
+                REQUIRE(next == walls.size());
+            }
+        REQUIRE(asked == int(world->grid.blockCount()) * planeNodes);
+        REQUIRE(ghosts > 0);
+        REQUIRE(held > 0);
         REQUIRE(compareAll(*world, contacts, reach) > 0);
         // Another set of colliders: the store starts again.
         contacts.bind(world->grid, 1, false);

@@ -27,10 +27,8 @@ public:
 
     /// Binds each block of `grid` to its leaf's record, creating records for leaves not seen
     /// before and dropping those no step has used for a while. `slipSurface`: whether slipNormal
-    /// will be asked; `wallSides`: whether wallSide will be. Serial; call after the grid's
-    /// rebuild, before asking.
-    void bind(const Grid& grid, std::size_t colliderCount, bool slipSurface,
-              bool wallSides = false);
+    /// will be asked. Serial; call after the grid's rebuild, before asking.
+    void bind(const Grid& grid, std::size_t colliderCount, bool slipSurface);
 
     /// The outward normal of `collider` (index c) at node n of block b if the node lies within
     /// `reach` of it (Collider::clearOf, signedDistance <= reach), else none. xn is the node's
@@ -45,19 +43,31 @@ public:
         return normalOf(b, state);
     }
 
-    /// Where a node lies against a collider taken as a sticky wall (firn/sticky_walls.h).
-    struct WallSide {
-        enum Kind : std::uint8_t { kOutside, kOnSurface, kInside };
-        Kind kind = kOutside;
-        Vec3f mirror = Vec3f::Zero(); ///< kInside: the node's image across the surface
+    /// A node that the sticky walls (firn/sticky_walls.h) hold at rest, on a wall's surface, or
+    /// mirror, inside a wall, with its image across the surface.
+    struct WallNode {
+        Vec3f mirror = Vec3f::Zero(); ///< a ghost's mirror point
+        std::uint16_t node = 0;       ///< index in the leaf
+        bool ghost = false;
     };
 
-    /// Node n of block b (position xn) against `collider` (index c): outside it beyond
-    /// `tolerance`, on its surface (signed distance phi within `tolerance` either side), or
-    /// inside, with the mirror point xn - 2 phi normal(xn). Bitwise what the collider gives.
-    /// Needs bind(..., wallSides = true); only the thread that works on block b may ask.
-    WallSide wallSide(std::size_t b, int n, std::size_t c, const Collider& collider,
-                      const Vec3f& xn, float tolerance);
+    /// The nodes of block b that `classify(n, node)` puts on or inside a wall (it fills `node`
+    /// and returns true), in node order. The store asks about every node of the leaf (2D: the
+    /// 64 of its plane) the first time a step asks for the leaf, and keeps the list: a step
+    /// then visits the few nodes next to a wall instead of asking each node with mass (the
+    /// sticky walls were 9 % of `slope2d`). Only the thread that works on block b may ask.
+    template <class Classify>
+    const std::vector<WallNode>& wallNodes(std::size_t b, int dim, Classify&& classify) {
+        if (const std::vector<WallNode>* known = knownWalls(b)) return *known;
+        std::vector<WallNode> found;
+        for (int n = 0; n < kLeafNodes; n += dim == 3 ? 1 : kLeafDim) {
+            WallNode node;
+            if (!classify(n, node)) continue;
+            node.node = std::uint16_t(n);
+            found.push_back(node);
+        }
+        return keepWalls(b, std::move(found));
+    }
 
     void clear();
 
@@ -68,24 +78,24 @@ public:
     std::size_t storedBytes() const;
 
 private:
-    /// A node's answer per slot: per collider, then per collider as a sticky wall (when asked
-    /// for), then the slip surface. Unknown, clear (a wall: outside), on a wall's surface, or in
-    /// contact with its normal (a wall: the mirror point) at normals[state - kInContact] of the
-    /// leaf. The vectors are kept only for the nodes in contact, a thin shell of a leaf next to
-    /// the ground: 2 bytes a node and slot instead of a 16-byte record (path3d: 26 MB of records
-    /// at 70 000 particles). A leaf holds at most 512 x slots vectors, so 16 bits suffice for up
-    /// to 127 slots (63 colliders with walls; bind throws beyond).
-    enum : std::uint16_t { kUnknown = 0, kClear = 1, kOnSurface = 2, kInContact = 3 };
+    /// A node's answer per slot: per collider, then the slip surface. Unknown, clear, or in
+    /// contact with its normal at normals[state - kInContact] of the leaf. The vectors are kept
+    /// only for the nodes in contact, a thin shell of a leaf next to the ground: 2 bytes a node
+    /// and slot instead of a 16-byte record (path3d: 26 MB of records at 70 000 particles). A
+    /// leaf holds at most 512 x slots vectors, so 16 bits suffice for up to 127 slots (bind
+    /// throws beyond).
+    enum : std::uint16_t { kUnknown = 0, kClear = 1, kInContact = 2 };
     struct Leaf;
     std::uint16_t& state(std::size_t b, int n, std::size_t slot);
     std::uint16_t keep(std::size_t b, const Vec3f& normal);
     const Vec3f& normalOf(std::size_t b, std::uint16_t state) const;
+    const std::vector<WallNode>* knownWalls(std::size_t b) const;
+    const std::vector<WallNode>& keepWalls(std::size_t b, std::vector<WallNode>&& walls);
     struct Leaves;
     std::unique_ptr<Leaves> mLeaves;
     std::vector<Leaf*> mBlocks; ///< per block of the bound grid: its leaf's records
     std::size_t mColliderCount = 0;
-    std::size_t mSlots = 0;    ///< colliders, walls and the slip surface's normal when asked for
-    std::size_t mWallSlot = 0; ///< the first wall's slot
+    std::size_t mSlots = 0; ///< colliders and the slip surface's normal when asked for
     std::size_t mSlipSlot = 0;
 };
 

@@ -27,6 +27,8 @@ constexpr std::uint64_t kKeepUnused = 64;
 struct NodeContacts::Leaf {
     std::vector<std::uint16_t> states; ///< kLeafNodes x mSlots
     std::vector<Vec3f> normals;        ///< of the nodes in contact, in the order first asked
+    std::vector<WallNode> walls;       ///< valid once wallsKnown
+    bool wallsKnown = false;
     std::uint64_t lastBound = 0;
 };
 
@@ -54,22 +56,19 @@ std::size_t NodeContacts::storedBytes() const {
     std::size_t bytes = 0;
     for (const auto& [key, leaf] : mLeaves->byKey)
         bytes += leaf.states.capacity() * sizeof(std::uint16_t) +
-                 leaf.normals.capacity() * sizeof(Vec3f);
+                 leaf.normals.capacity() * sizeof(Vec3f) + leaf.walls.capacity() * sizeof(WallNode);
     return bytes;
 }
 
-void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSurface,
-                        bool wallSides) {
-    const std::size_t wallSlots = wallSides ? colliderCount : 0;
-    const std::size_t slots = colliderCount + wallSlots + (slipSurface ? 1 : 0);
+void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSurface) {
+    const std::size_t slots = colliderCount + (slipSurface ? 1 : 0);
     if (slots > 127)
         throw std::runtime_error("too many colliders for the grid's contact store (" +
-                                 std::to_string(colliderCount) + "; at most 63 with sticky walls)");
-    const std::size_t slipSlot = colliderCount + wallSlots;
+                                 std::to_string(colliderCount) + "; at most 126)");
+    const std::size_t slipSlot = colliderCount;
     if (colliderCount != mColliderCount || slots != mSlots || slipSlot != mSlipSlot) clear();
     mColliderCount = colliderCount;
     mSlots = slots;
-    mWallSlot = colliderCount;
     mSlipSlot = slipSlot;
     Leaves& leaves = *mLeaves;
     const std::uint64_t now = ++leaves.binds;
@@ -111,24 +110,18 @@ std::optional<Vec3f> NodeContacts::contact(std::size_t b, int n, std::size_t c,
     return normalOf(b, s);
 }
 
-NodeContacts::WallSide NodeContacts::wallSide(std::size_t b, int n, std::size_t c,
-                                              const Collider& collider, const Vec3f& xn,
-                                              float tolerance) {
-    std::uint16_t& s = state(b, n, mWallSlot + c);
-    if (s == kUnknown) {
-        s = kClear;
-        if (!collider.clearOf(xn, tolerance)) {
-            const float phi = collider.signedDistance(xn);
-            if (phi >= -tolerance && phi <= tolerance)
-                s = kOnSurface;
-            else if (phi < -tolerance)
-                s = keep(b, xn - 2.f * phi * collider.normal(xn));
-        }
-    }
-    WallSide side;
-    if (s == kOnSurface) side.kind = WallSide::kOnSurface;
-    if (s >= kInContact) side = {WallSide::kInside, normalOf(b, s)};
-    return side;
+const std::vector<NodeContacts::WallNode>* NodeContacts::knownWalls(std::size_t b) const {
+    const Leaf& leaf = *mBlocks[b];
+    return leaf.wallsKnown ? &leaf.walls : nullptr;
+}
+
+const std::vector<NodeContacts::WallNode>& NodeContacts::keepWalls(std::size_t b,
+                                                                   std::vector<WallNode>&& walls) {
+    Leaf& leaf = *mBlocks[b];
+    leaf.walls = std::move(walls);
+    leaf.walls.shrink_to_fit();
+    leaf.wallsKnown = true;
+    return leaf.walls;
 }
 
 } // namespace firn

@@ -16,46 +16,46 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, NodeC
         if (colliders[c].mirrorsInside()) sticky.push_back(c);
     if (sticky.empty()) return;
 
-    // Classify the nodes with mass; the ghosts of each block in node order, so that the list
+    // The nodes on or inside a wall, the ghosts of each block in node order, so that the list
     // (and the serial fold below) has the same order whatever the thread count. A node's side
-    // of each wall depends on its position alone: the contact store keeps it across steps.
+    // of each wall depends on its position alone: the contact store keeps each leaf's wall
+    // nodes across steps, and a step visits those with mass.
     const std::size_t nb = grid.blockCount();
     mState.assign(nb * kLeafNodes, kFree);
     std::vector<std::vector<Ghost>> ghostsOfBlock(nb);
-    const int nk = dim == 3 ? kLeafDim : 1;
     const float tolerance = kContactTolerance * dx;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nb, 1), [&](const auto& r) {
         for (std::size_t b = r.begin(); b != r.end(); ++b) {
-            const float* mass = grid.mass(b);
             const LeafKey& key = grid.blockKey(b);
-            for (int i = 0; i < kLeafDim; ++i)
-                for (int j = 0; j < kLeafDim; ++j)
-                    for (int k = 0; k < nk; ++k) {
-                        const int n = (i << 6) | (j << 3) | k;
-                        if (mass[n] <= 0.f) continue;
-                        const Vec3f x = nodePosition(key, i, j, k, dx, dim);
-                        std::uint8_t state = kFree;
-                        Vec3f mirrorPoint = Vec3f::Zero();
-                        for (std::size_t c : sticky) {
-                            const NodeContacts::WallSide side =
-                                contacts.wallSide(b, n, c, colliders[c], x, tolerance);
-                            if (side.kind == NodeContacts::WallSide::kOutside) continue;
-                            if (side.kind == NodeContacts::WallSide::kOnSurface) { // at rest
-                                state = kHeld;
-                                break;
-                            }
-                            if (state == kFree) {
-                                state = kGhost;
-                                mirrorPoint = side.mirror;
-                            }
-                        }
-                        mState[b * kLeafNodes + std::size_t(n)] = state;
-                        if (state != kGhost) continue;
-                        Ghost g;
-                        g.at = {std::int32_t(b), n};
-                        g.mirrorPoint = mirrorPoint;
-                        ghostsOfBlock[b].push_back(g);
+            const auto classify = [&](int n, NodeContacts::WallNode& node) {
+                const Vec3f x = nodePosition(key, n >> 6, (n >> 3) & 7, n & 7, dx, dim);
+                bool onWall = false;
+                for (std::size_t c : sticky) {
+                    const Collider& wall = colliders[c];
+                    if (wall.clearOf(x, tolerance)) continue;
+                    const float phi = wall.signedDistance(x);
+                    if (phi > tolerance) continue;
+                    if (phi >= -tolerance) { // on the surface: held at rest
+                        node.ghost = false;
+                        return true;
                     }
+                    if (!onWall) { // inside: mirrored across the first wall it is in
+                        onWall = node.ghost = true;
+                        node.mirror = x - 2.f * phi * wall.normal(x);
+                    }
+                }
+                return onWall;
+            };
+            const float* mass = grid.mass(b);
+            for (const NodeContacts::WallNode& node : contacts.wallNodes(b, dim, classify)) {
+                if (mass[node.node] <= 0.f) continue;
+                mState[b * kLeafNodes + node.node] = node.ghost ? kGhost : kHeld;
+                if (!node.ghost) continue;
+                Ghost g;
+                g.at = {std::int32_t(b), node.node};
+                g.mirrorPoint = node.mirror;
+                ghostsOfBlock[b].push_back(g);
+            }
         }
     });
     for (auto& list : ghostsOfBlock) mGhosts.insert(mGhosts.end(), list.begin(), list.end());

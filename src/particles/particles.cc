@@ -273,13 +273,19 @@ void ParticleSet::bucketByLeaf() {
         const std::size_t nl = leafCount();
         unsigned char* code = lent.codes();
         std::vector<std::array<std::uint32_t, kDirections>> count(nl);
+        std::vector<std::uint32_t> farCount(nl); // so that the serial pass skips most leaves
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
                 count[l].fill(0);
+                std::uint32_t farHere = 0;
                 for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
                     code[i] = directionCode(leaves[l], leafOf(x[i], invDx, dim));
-                    if (code[i] != kFar) ++count[l][code[i]];
+                    if (code[i] != kFar)
+                        ++count[l][code[i]];
+                    else
+                        ++farHere;
                 }
+                farCount[l] = farHere;
             }
         });
         bool moved = false;
@@ -291,7 +297,7 @@ void ParticleSet::bucketByLeaf() {
                 newLeaves.push_back(offsetKey(leaves[l], c));
                 moved |= (c != kStay);
             }
-            for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
+            for (std::uint32_t i = leafStart[l]; farCount[l] > 0 && i < leafStart[l + 1]; ++i) {
                 if (code[i] != kFar) continue;
                 far.push_back({leafOf(x[i], invDx, dim), i});
                 newLeaves.push_back(far.back().first);

@@ -122,9 +122,7 @@ void updateGridVelocity(World& world, float dt) {
         world.gravityRamp > 0.f ? std::min(1.f, float(world.time) / world.gravityRamp) : 1.f;
     const Vec3f dv = (dt * ramp) * world.gravity;
     NodeContacts& contacts = world.nodeContacts;
-    const bool wallSides = std::any_of(world.colliders.begin(), world.colliders.end(),
-                                       [](const Collider& c) { return c.mirrorsInside(); });
-    contacts.bind(grid, world.colliders.size(), layout.twoFields, wallSides);
+    contacts.bind(grid, world.colliders.size(), layout.twoFields);
     world.stickyWalls.fold(world.colliders, grid, contacts, world.dx, world.dim, flip, dv);
     const StickyWalls& walls = world.stickyWalls;
     const float tolerance = kContactTolerance * world.dx;
