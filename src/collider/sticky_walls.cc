@@ -51,7 +51,7 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, NodeC
                 if (mass[node.node] <= 0.f) continue;
                 mState[b * kLeafNodes + node.node] = node.ghost ? kGhost : kHeld;
                 if (!node.ghost) continue;
-                Ghost g;
+                Ghost g{};
                 g.at = {std::int32_t(b), node.node};
                 g.mirrorPoint = node.mirror;
                 ghostsOfBlock[b].push_back(g);

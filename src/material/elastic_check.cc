@@ -21,7 +21,7 @@ bool staysElastic(const Material& m, float trEps, float devNorm, const PlasticSt
         const float K = lame.bulkModulus(m.dim);
         const bool collapsed =
             m.model == MaterialModel::WeakLayer && (state.flags & kFlagCollapsed);
-        const float p0 = camClayP0(K, cc.xi, state.hardening); // eqs. (2), (3)
+        const float p0 = m.p0(state); // eqs. (2), (3)
         const float p = -K * trEps;
         const float q = std::sqrt(1.5f) * 2.f * lame.mu * devNorm;
         // eq. (1); eq. (5) after weak-layer collapse (beta = 0, M = M_d)

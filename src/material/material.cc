@@ -66,6 +66,9 @@ Material Material::fromDesc(const MaterialDesc& desc, int dim, double dx) {
     m.grainDiameter = float(desc.grainDiameter);
     m.inertialNumberScale = float(desc.inertialNumberScale);
     m.dim = dim;
+    const float h = m.initialState().hardening;
+    const float K = m.lame.bulkModulus(dim);
+    m.initialP0 = {K, m.camClay.xi, h, camClayP0(K, m.camClay.xi, h)};
     return m;
 }
 
@@ -135,7 +138,7 @@ float camClayP0(float K, float xi, float hardeningVariable) {
 
 bool slabFractured(const Material& m, const PlasticState& state) {
     if (m.model != MaterialModel::Snow || !(m.camClay.p0Initial > 0.f)) return false;
-    const float p0 = camClayP0(m.lame.bulkModulus(m.dim), m.camClay.xi, state.hardening);
+    const float p0 = m.p0(state);
     return p0 <= kSlabFractureP0Ratio * m.camClay.p0Initial;
 }
 

@@ -159,8 +159,7 @@ PlasticState softenAnticrack(PlasticState state, const Projection& pr, float alp
 ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
                                  const PlasticState& state) {
     const CamClayParams& cc = m.camClay;
-    const float K = m.lame.bulkModulus(m.dim);
-    const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.M, cc.beta}; // eq. (2)
+    const CamClaySurface surface{m.p0(state), cc.M, cc.beta}; // eq. (2)
     const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
     return {pr.eps, hardenVolumetric(state, pr)};
 }
@@ -168,14 +167,13 @@ ReturnMapResult returnMapCamClay(const Material& m, const Vec3f& epsTrial,
 ReturnMapResult returnMapWeakLayer(const Material& m, const Vec3f& epsTrial,
                                    const PlasticState& state) {
     const CamClayParams& cc = m.camClay;
-    const float K = m.lame.bulkModulus(m.dim);
     if (state.flags & kFlagCollapsed) {
         // After t_c: no cohesion, slope M_d, hardening by eq. (2) on eps_V^P: eq. (5).
-        const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.Md, 0.f};
+        const CamClaySurface surface{m.p0(state), cc.Md, 0.f};
         const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
         return {pr.eps, hardenVolumetric(state, pr)};
     }
-    const CamClaySurface surface{camClayP0(K, cc.xi, state.hardening), cc.M, cc.beta}; // eq. (3)
+    const CamClaySurface surface{m.p0(state), cc.M, cc.beta}; // eq. (3)
     const Projection pr = projectCamClay(m.lame, m.dim, surface, epsTrial);
     return {pr.eps, softenAnticrack(state, pr, cc.alpha)};
 }

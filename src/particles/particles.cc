@@ -276,15 +276,23 @@ void ParticleSet::bucketByLeaf() {
         std::vector<std::uint32_t> farCount(nl); // so that the serial pass skips most leaves
         tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nl, 1), [&](const auto& r) {
             for (std::size_t l = r.begin(); l != r.end(); ++l) {
-                count[l].fill(0);
-                std::uint32_t farHere = 0;
+                // Most particles stay in their leaf: their count is kept in a register, apart
+                // from the histogram's chain of loads and stores on one counter.
+                std::array<std::uint32_t, kDirections> counts{};
+                std::uint32_t stay = 0, farHere = 0;
+                const LeafKey from = leaves[l];
                 for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
-                    code[i] = directionCode(leaves[l], leafOf(x[i], invDx, dim));
-                    if (code[i] != kFar)
-                        ++count[l][code[i]];
+                    const std::uint8_t c = directionCode(from, leafOf(x[i], invDx, dim));
+                    code[i] = c;
+                    if (c == kStay)
+                        ++stay;
+                    else if (c != kFar)
+                        ++counts[c];
                     else
                         ++farHere;
                 }
+                counts[kStay] = stay;
+                count[l] = counts;
                 farCount[l] = farHere;
             }
         });
