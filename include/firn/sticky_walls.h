@@ -29,8 +29,8 @@ namespace firn {
 
 class StickyWalls {
 public:
-    /// Classifies the nodes with mass against the sticky colliders among `colliders` (their
-    /// sides kept in `contacts`, bound to `grid` with wall sides), and folds the ghosts' mass,
+    /// Classifies the nodes with mass against the sticky colliders among `colliders` (each
+    /// leaf's wall nodes kept in `contacts`, bound to `grid`), and folds the ghosts' mass,
     /// momentum (Grid::velocity) and, for FLIP, stress impulse (Grid::aux) into their mirror
     /// nodes. `gravityImpulse` is dt g (ramped): the fold moves the ghosts' weight onto the
     /// mirror nodes with the constraint's sign. Call after P2G, before the update.
