@@ -305,7 +305,8 @@ void ParticleSet::bucketByLeaf() {
                 newLeaves.push_back(offsetKey(leaves[l], c));
                 moved |= (c != kStay);
             }
-            for (std::uint32_t i = leafStart[l]; farCount[l] > 0 && i < leafStart[l + 1]; ++i) {
+            if (farCount[l] == 0) continue;
+            for (std::uint32_t i = leafStart[l]; i < leafStart[l + 1]; ++i) {
                 if (code[i] != kFar) continue;
                 far.push_back({leafOf(x[i], invDx, dim), i});
                 newLeaves.push_back(far.back().first);
