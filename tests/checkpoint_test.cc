@@ -2,14 +2,17 @@
 // end to end with the real binary ([slow]: ~10 runs, too long under the sanitizers), a run killed
 // with SIGKILL at random moments and resumed (with another thread count) finishes bitwise as the
 // run that was never interrupted; damaged checkpoints are skipped with a warning; checkpoints of
-// another scene or another format are refused.
+// another scene or another format are refused; a checkpoint streams to its file as a kept image
+// would be.
 #include "firn_process.h"
 
 #include <firn/checkpoint.h>
+#include <firn/serial.h>
 #include <firn/solver.h>
 
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <random>
@@ -73,16 +76,11 @@ std::string withoutKeys(const std::string& json, const std::set<std::string>& dr
     return out;
 }
 
-const std::set<std::string> kWallKeys = {"wall_seconds",
-                                         "particle_steps_per_second",
-                                         "peak_rss_bytes",
-                                         "bytes_per_particle",
-                                         "baseline_rss_bytes",
-                                         "threads",
-                                         "settle_wall_seconds",
-                                         "resumed_from_frame",
-                                         "checkpoints_written",
-                                         "checkpoint_wall_seconds",
+const std::set<std::string> kWallKeys = {"wall_seconds",        "particle_steps_per_second",
+                                         "peak_rss_bytes",      "bytes_per_particle",
+                                         "baseline_rss_bytes",  "threads",
+                                         "settle_wall_seconds", "resumed_from_frame",
+                                         "checkpoints_written", "checkpoint_wall_seconds",
                                          "raster_wall_seconds"};
 
 /// Every file a run leaves, but checkpoints and the captured output.
@@ -307,4 +305,35 @@ velocity = [1.0, -1.0]
     const std::string file = dir.path() + "/" + checkpointFileName(7);
     fs::resize_file(file, fs::file_size(file) - 9);
     CHECK_THROWS_AS(loadNewestCheckpoint(dir.path(), scene.resolvedToml, *other), IoError);
+}
+
+TEST_CASE("a streaming ByteWriter hands over the bytes a keeping one keeps", "[checkpoint]") {
+    // Small values buffered into pieces, an array larger than a piece handed over from its own
+    // memory, and the tail only on flush(): the concatenation must be the kept bytes, in order.
+    std::vector<float> large(300000); // 1.2 MB, above the 1 MiB piece
+    for (std::size_t i = 0; i < large.size(); ++i) large[i] = float(i) * 0.5f;
+    const std::vector<std::int32_t> small = {1, -2, 3};
+    std::string streamed;
+    std::vector<std::size_t> pieces;
+    ByteWriter kept;
+    ByteWriter streaming([&](const char* data, std::size_t size) {
+        streamed.append(data, size);
+        pieces.push_back(size);
+    });
+    for (ByteWriter* w : {&kept, &streaming}) {
+        w->value(std::uint32_t(7));
+        w->string("scene.toml");
+        w->array(small);
+        w->array(large);
+        for (int k = 0; k < 70000; ++k) w->value(double(k)); // 560 kB more: one piece fills
+        w->string("tail");
+    }
+    CHECK(streaming.bytes().size() < (std::size_t(1) << 20)); // never more than a piece kept
+    const std::size_t before = streamed.size();
+    streaming.flush();
+    CHECK(streamed.size() > before); // the tail came only with flush()
+    CHECK(streaming.bytes().empty());
+    CHECK(streamed == kept.bytes());
+    CHECK(streaming.size() == kept.bytes().size());
+    CHECK(std::count(pieces.begin(), pieces.end(), large.size() * sizeof(float)) == 1);
 }

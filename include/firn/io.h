@@ -46,8 +46,10 @@ struct FrameInfo {
 
 /// Writes `dir/particles.NNNN.vdb`: one PointDataGrid "points" with P, v, material, failed,
 /// eps_v, eta, p, q (Blosc). Written to a temporary name in `dir`, then renamed. Throws IoError.
+/// `particles` is taken by value and emptied as the grid takes its arrays in (pass a temporary,
+/// or std::move, and it is not copied): a frame write then holds each particle value once.
 void writeParticleCache(const std::string& dir, const FrameInfo& info, double voxelSize,
-                        const ParticleFrame& particles);
+                        ParticleFrame particles);
 
 /// Writes `dir/volume.NNNN.vdb` with the grids named in `grids` (of "density", "velocity",
 /// "failed", "eta"), atomically as above. Throws IoError.
@@ -69,8 +71,11 @@ public:
     ~AtomicFileWriter();
     AtomicFileWriter(const AtomicFileWriter&) = delete;
     AtomicFileWriter& operator=(const AtomicFileWriter&) = delete;
-    /// Appends `text` to the temporary file.
+    /// Appends `text` (or `size` bytes at `data`) to the temporary file.
     void write(const std::string& text);
+    void write(const char* data, std::size_t size);
+    /// Overwrites bytes already written, from `offset` (a header field known only at the end).
+    void writeAt(std::uint64_t offset, const std::string& bytes);
     /// Syncs and closes the temporary file, then renames it to `path`.
     void commit();
 

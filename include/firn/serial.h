@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
@@ -31,25 +32,54 @@ constexpr bool kPlainBytes = std::is_trivially_copyable_v<T> ||
 
 class ByteWriter {
 public:
+    /// Where a streaming writer's bytes go, in the order written.
+    using Sink = std::function<void(const char* data, std::size_t size)>;
+    /// Keeps the bytes (bytes()).
+    ByteWriter() = default;
+    /// Hands the bytes to `sink` in pieces of about kChunk bytes, a large array directly from
+    /// its own memory, instead of keeping them: a checkpoint of a large run is written without
+    /// an image of it in memory. flush() hands over the last piece.
+    explicit ByteWriter(Sink sink)
+        : mSink(std::move(sink)) {}
     template <typename T> void value(const T& v) {
         static_assert(kPlainBytes<T>);
-        const auto* p = reinterpret_cast<const char*>(&v);
-        mBytes.append(p, sizeof(T));
+        append(reinterpret_cast<const char*>(&v), sizeof(T));
     }
     template <typename T> void array(const std::vector<T>& v) {
         static_assert(kPlainBytes<T>);
         value(std::uint64_t(v.size()));
-        mBytes.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+        append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
     }
     void string(const std::string& s) {
         value(std::uint64_t(s.size()));
-        mBytes += s;
+        append(s.data(), s.size());
     }
+    void flush() {
+        if (!mSink || mBytes.empty()) return;
+        mSink(mBytes.data(), mBytes.size());
+        mBytes.clear();
+    }
+    /// Bytes written so far, kept or handed over.
+    std::uint64_t size() const { return mSize; }
     const std::string& bytes() const { return mBytes; }
     std::string& bytes() { return mBytes; }
 
 private:
+    static constexpr std::size_t kChunk = std::size_t(1) << 20;
+    void append(const char* data, std::size_t size) {
+        mSize += size;
+        if (mSink && size >= kChunk) {
+            flush();
+            mSink(data, size);
+            return;
+        }
+        mBytes.append(data, size);
+        if (mSink && mBytes.size() >= kChunk) flush();
+    }
+
+    Sink mSink;
     std::string mBytes;
+    std::uint64_t mSize = 0;
 };
 
 /// Thrown when a read runs past the end: the data is truncated or not what the reader expects.

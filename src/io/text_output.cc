@@ -33,16 +33,16 @@ std::string tempPathFor(const std::string& path) {
     return (p.parent_path() / ("." + p.filename().string() + ".tmp")).string();
 }
 
-/// write(2) may write less than asked (signals, pipes); loop until all of `text` is out.
-void writeAll(int fd, const std::string& text, const std::string& path) {
-    const char* data = text.data();
-    size_t left = text.size();
+/// write(2), or pwrite(2) at `offset` where it is not negative, may write less than asked
+/// (signals, pipes); loop until all `left` bytes are out.
+void writeAll(int fd, const char* data, size_t left, const std::string& path, off_t offset = -1) {
     while (left > 0) {
-        const ssize_t n = ::write(fd, data, left);
+        const ssize_t n = offset < 0 ? ::write(fd, data, left) : ::pwrite(fd, data, left, offset);
         if (n < 0 && errno == EINTR) continue;
         if (n < 0) throw writeError(path, errno);
         data += n;
         left -= size_t(n);
+        if (offset >= 0) offset += off_t(n);
     }
 }
 
@@ -124,7 +124,15 @@ AtomicFileWriter::~AtomicFileWriter() {
 }
 
 void AtomicFileWriter::write(const std::string& text) {
-    writeAll(mFd, text, mPath);
+    writeAll(mFd, text.data(), text.size(), mPath);
+}
+
+void AtomicFileWriter::write(const char* data, std::size_t size) {
+    writeAll(mFd, data, size, mPath);
+}
+
+void AtomicFileWriter::writeAt(std::uint64_t offset, const std::string& bytes) {
+    writeAll(mFd, bytes.data(), bytes.size(), mPath, off_t(offset));
 }
 
 void AtomicFileWriter::commit() {

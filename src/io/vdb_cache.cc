@@ -114,7 +114,15 @@ void addAttribute(PointDataTree& tree, const PointIndexTree& index, const std::s
     openvdb::points::populateAttribute(tree, index, name, ArrayView<SourceT>(values));
 }
 
-PointDataGrid::Ptr makePointGrid(const ParticleFrame& particles, double voxelSize) {
+/// Frees a frame's array once the grid holds it.
+template <typename T> void release(std::vector<T>& values) {
+    std::vector<T>().swap(values);
+}
+
+/// The point grid of a frame, emptying the frame array by array as the grid takes each in: a
+/// frame's arrays and the grid's attributes (about 50 bytes a particle each) are then never all
+/// held at once, and a frame write adds less to the run's peak memory.
+PointDataGrid::Ptr makePointGrid(ParticleFrame& particles, double voxelSize) {
     using namespace openvdb;
     const auto xform = math::Transform::createLinearTransform(voxelSize);
     const ArrayView<std::array<float, 3>> positions(particles.P);
@@ -124,14 +132,19 @@ PointDataGrid::Ptr makePointGrid(const ParticleFrame& particles, double voxelSiz
     // no finer than the coordinate itself and it may come back one float step away.
     auto grid =
         points::createPointDataGrid<points::NullCodec, PointDataGrid>(*index, positions, *xform);
+    release(particles.P); // the grid holds the positions now; the index, their order
     auto& tree = grid->tree();
-    addAttribute(tree, index->tree(), "v", particles.v);
-    addAttribute(tree, index->tree(), "material", particles.material);
-    addAttribute(tree, index->tree(), "failed", particles.failed);
-    addAttribute(tree, index->tree(), "eps_v", particles.eps_v);
-    addAttribute(tree, index->tree(), "eta", particles.eta);
-    addAttribute(tree, index->tree(), "p", particles.p);
-    addAttribute(tree, index->tree(), "q", particles.q);
+    const auto add = [&](const std::string& name, auto& values) {
+        addAttribute(tree, index->tree(), name, values);
+        release(values);
+    };
+    add("v", particles.v);
+    add("material", particles.material);
+    add("failed", particles.failed);
+    add("eps_v", particles.eps_v);
+    add("eta", particles.eta);
+    add("p", particles.p);
+    add("q", particles.q);
     grid->setName("points");
     return grid;
 }
@@ -324,7 +337,7 @@ void writeGridsAtomic(const std::string& dir, const std::string& name,
 } // namespace
 
 void writeParticleCache(const std::string& dir, const FrameInfo& info, double voxelSize,
-                        const ParticleFrame& particles) {
+                        ParticleFrame particles) {
     checkVoxelSize(voxelSize);
     checkParticles(particles);
     openvdb::initialize(); // idempotent, and cheap after the first call
