@@ -76,6 +76,10 @@ enum class BuildStage { Bare, Seeded, Settled };
 struct BuildObserver {
     /// Polled while settling: true ends settling early (a signal asked the run to stop).
     std::function<bool()> interrupted;
+    /// The colliders are built and no body is seeded yet (not called for BuildStage::Bare): what
+    /// needs only the terrain (its export) runs here, and its transient memory is free again
+    /// before the particles take theirs.
+    std::function<void(const World&)> collidersBuilt;
     /// The bodies are seeded: how many particles, and the wall time it took, s.
     std::function<void(std::size_t particles, double seconds)> seeded;
     /// After every settling step (SettleParams::progress).

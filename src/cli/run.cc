@@ -252,11 +252,17 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     const FrameInfo info{k, w.time, s.scene.simulation.frameRate, w.origin};
     const OutputDesc& out = s.scene.output;
     w.grid.rebuild(w.particles, 0);
-    const VolumeFrame volume = rasterizeVolumes(w.particles, w.grid, w.scratch);
     std::size_t activeVoxels = 0;
-    for (float rho : volume.density) activeVoxels += rho > 0.f;
+    {
+        const VolumeFrame volume = rasterizeVolumes(w.particles, w.grid, w.scratch);
+        for (float rho : volume.density) activeVoxels += rho > 0.f;
+        if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
+    }
+    // The transfers' scratch (P2G's padded blocks: 20 floats a node of every particle leaf with
+    // a slip surface) is rebuilt by the next step; freed here, the particle cache's arrays and
+    // point grid do not come on top of it (slope3d: the frame write was the run's peak).
+    w.scratch = TransferScratch{};
     if (out.particles) writeParticleCache(s.framesDir, info, w.dx, exportParticles(w));
-    if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
     s.crack.update(d, w.time);
     s.arrival.update(d, w.time);
     s.slab.update(slabSamples(w), w.dx, w.dim, w.time, s.crack);
@@ -577,9 +583,14 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
         removeCheckpoints(checkpointDir);
         writeFileAtomic(result.outDir + "/scene.toml", scene.resolvedToml);
         Progress building(options.quiet, 0);
+        BuildObserver observer = building.observer(scene.simulation.settleTolerance);
+        // terrain.obj and terrain.vdb before the particles exist: the level set's sampling
+        // (about 20 MB for slope2d) is then not held on top of them (it was slope2d's peak).
+        observer.collidersBuilt = [&](const World& bare) {
+            exportTerrain(scene, bare.colliders, result.outDir);
+        };
         try {
-            world = buildWorld(scene, BuildStage::Settled,
-                               building.observer(scene.simulation.settleTolerance));
+            world = buildWorld(scene, BuildStage::Settled, observer);
         } catch (const SimulationError& e) {
             building.endLine();
             writeUnstableSettleSummary(scene, result, e.what());
@@ -592,7 +603,7 @@ RunResult runScene(const SceneDesc& sceneIn, const RunOptions& options) {
                 world->settle.time, world->settle.steps, world->settle.wallSeconds,
                 world->settle.message.empty() ? "" : ": warning: ", world->settle.message.c_str());
     }
-    exportTerrain(scene, world->colliders, result.outDir); // terrain.obj, terrain.vdb
+    if (options.resume) exportTerrain(scene, world->colliders, result.outDir);
     std::unique_ptr<RunState> state =
         options.resume ? std::make_unique<RunState>(scene, *world, result.outDir, resumed.frame)
                        : std::make_unique<RunState>(scene, *world, result.outDir);

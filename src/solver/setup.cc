@@ -559,6 +559,7 @@ std::unique_ptr<World> buildWorld(const SceneDesc& sceneIn, BuildStage stage,
     w.particles.dim = w.dim;
     w.particles.dx = w.dx;
     if (stage == BuildStage::Bare) return world;
+    if (observer.collidersBuilt) observer.collidersBuilt(w);
     const auto seeding = std::chrono::steady_clock::now();
     seedBodies(scene, w);
     if (observer.seeded)
