@@ -255,13 +255,13 @@ void writeFrame(RunState& s, int k, const FrameDiagnostics& d, const StabilityWa
     std::size_t activeVoxels = 0;
     {
         const VolumeFrame volume = rasterizeVolumes(w.particles, w.grid, w.scratch);
+        // The transfers' scratch (padded blocks: up to 20 floats a node of every particle leaf)
+        // is rebuilt by the next step; freed here, the caches' grids and arrays do not come on
+        // top of it (slope3d, path3d: a frame write was the run's peak).
+        w.scratch = TransferScratch{};
         for (float rho : volume.density) activeVoxels += rho > 0.f;
         if (!out.volumes.empty()) writeVolumeCache(s.framesDir, info, volume, out.volumes);
     }
-    // The transfers' scratch (P2G's padded blocks: 20 floats a node of every particle leaf with
-    // a slip surface) is rebuilt by the next step; freed here, the particle cache's arrays and
-    // point grid do not come on top of it (slope3d: the frame write was the run's peak).
-    w.scratch = TransferScratch{};
     if (out.particles) writeParticleCache(s.framesDir, info, w.dx, exportParticles(w));
     s.crack.update(d, w.time);
     s.arrival.update(d, w.time);
