@@ -61,8 +61,8 @@ public:
     }
     /// Bytes written so far, kept or handed over.
     std::uint64_t size() const { return mSize; }
+    /// The bytes kept (a streaming writer's: those not handed over yet).
     const std::string& bytes() const { return mBytes; }
-    std::string& bytes() { return mBytes; }
 
 private:
     static constexpr std::size_t kChunk = std::size_t(1) << 20;

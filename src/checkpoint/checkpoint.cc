@@ -127,9 +127,9 @@ void writeCheckpoint(const std::string& dir, int frame, const std::string& scene
     makeDirectories(dir);
     AtomicFileWriter file(dir + "/" + checkpointFileName(frame));
     ByteWriter header;
-    header.bytes().append(kMagic, sizeof kMagic);
+    header.value(kMagic);
     header.value(kCheckpointFormat);
-    const std::uint64_t sizeAt = header.bytes().size();
+    const std::uint64_t sizeAt = header.size();
     header.value(std::uint64_t(0));
     file.write(header.bytes());
     std::uint64_t hash = fnv1a64(nullptr, 0);
