@@ -38,6 +38,9 @@ public:
 
     std::size_t blockCount() const;
     const LeafKey& blockKey(std::size_t b) const;
+    /// Names the blocks' keys: it changes whenever they change, and no two topologies of any
+    /// grid in the process share one (a store keyed by blocks, NodeContacts, can skip a bind).
+    std::uint64_t topologyId() const;
     float* mass(std::size_t b);     ///< kLeafNodes floats (VDB FloatTree leaf buffer)
     float* velocity(std::size_t b); ///< 3 * kLeafNodes floats (VDB Vec3fTree leaf buffer)
     float* aux(std::size_t b);      ///< auxChannels * kLeafNodes floats

@@ -27,7 +27,8 @@ public:
 
     /// Binds each block of `grid` to its leaf's record, creating records for leaves not seen
     /// before and dropping those no step has used for a while. `slipSurface`: whether slipNormal
-    /// will be asked. Serial; call after the grid's rebuild, before asking.
+    /// will be asked. Serial; call after the grid's rebuild, before asking. A grid whose blocks
+    /// are those of the last bind (the same Grid::topologyId) keeps its binding: most steps.
     void bind(const Grid& grid, std::size_t colliderCount, bool slipSurface);
 
     /// The outward normal of `collider` (index c) at node n of block b if the node lies within
@@ -93,7 +94,8 @@ private:
     const std::vector<WallNode>& keepWalls(std::size_t b, std::vector<WallNode>&& walls);
     struct Leaves;
     std::unique_ptr<Leaves> mLeaves;
-    std::vector<Leaf*> mBlocks; ///< per block of the bound grid: its leaf's records
+    std::vector<Leaf*> mBlocks;       ///< per block of the bound grid: its leaf's records
+    std::uint64_t mBoundTopology = 0; ///< Grid::topologyId of the bound grid (0: none)
     std::size_t mColliderCount = 0;
     std::size_t mSlots = 0; ///< colliders and the slip surface's normal when asked for
     std::size_t mSlipSlot = 0;

@@ -17,7 +17,8 @@ struct LeafKeyHash {
     }
 };
 
-/// Records of leaves unused for this many binds are dropped once the store holds more than
+/// Records of leaves unused for this many re-bindings (new grid topologies: a steady grid keeps
+/// its binding) are dropped once the store holds more than
 /// twice the grid's blocks: a flow's wake is let go, a leaf the snow comes back to is asked
 /// again (the answers are the same).
 constexpr std::uint64_t kKeepUnused = 64;
@@ -46,6 +47,7 @@ NodeContacts& NodeContacts::operator=(NodeContacts&&) noexcept = default;
 void NodeContacts::clear() {
     mLeaves->byKey.clear();
     mBlocks.clear();
+    mBoundTopology = 0;
 }
 
 std::size_t NodeContacts::storedLeaves() const {
@@ -67,6 +69,8 @@ void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSu
                                  std::to_string(colliderCount) + "; at most 126)");
     const std::size_t slipSlot = colliderCount;
     if (colliderCount != mColliderCount || slots != mSlots || slipSlot != mSlipSlot) clear();
+    if (grid.topologyId() == mBoundTopology) return;
+    mBoundTopology = grid.topologyId();
     mColliderCount = colliderCount;
     mSlots = slots;
     mSlipSlot = slipSlot;

@@ -1,8 +1,12 @@
 #include <firn/grid.h>
 
 #include <openvdb/openvdb.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <atomic>
 
 namespace firn {
 
@@ -32,12 +36,18 @@ std::int32_t findKey(const std::vector<LeafKey>& keys, const LeafKey& k) {
     auto it = std::lower_bound(keys.begin(), keys.end(), k);
     return (it != keys.end() && *it == k) ? static_cast<std::int32_t>(it - keys.begin()) : -1;
 }
+
+std::uint64_t nextTopologyId() {
+    static std::atomic<std::uint64_t> last{0};
+    return ++last;
+}
 } // namespace
 
 struct Grid::Impl {
     MassTree massTree{0.f};
     VelocityTree velocityTree{openvdb::Vec3f(0.f)};
     std::vector<LeafKey> keys;
+    std::uint64_t topologyId = nextTopologyId();
     std::vector<MassLeaf*> massLeaves;
     std::vector<VelocityLeaf*> velocityLeaves;
     std::vector<float> aux;
@@ -47,6 +57,9 @@ struct Grid::Impl {
     std::vector<LeafKey> particleLeaves; ///< what the topology was built from (a function of
     int particleDim = 0;                 ///< the particle leaves and the dimension alone)
 
+    // Runs when a particle changes leaf, which on a flowing avalanche is most steps: the key
+    // searches and the two trees' rebuilds are parallel (each result is independent of the
+    // thread count: the sort orders distinct keys, the searches write their own entries).
     void buildTopology(const ParticleSet& particles) {
         particleLeaves = particles.leaves;
         particleDim = particles.dim;
@@ -55,25 +68,29 @@ struct Grid::Impl {
         newKeys.reserve(particles.leafCount() * no);
         for (const LeafKey& k : particles.leaves)
             for (int o = 0; o < no; ++o) newKeys.push_back(shifted(k, o, +1));
-        std::sort(newKeys.begin(), newKeys.end());
+        tbb::parallel_sort(newKeys.begin(), newKeys.end());
         newKeys.erase(std::unique(newKeys.begin(), newKeys.end()), newKeys.end());
         if (newKeys != keys) {
-            retopologise(massTree, massLeaves, newKeys);
-            retopologise(velocityTree, velocityLeaves, newKeys);
+            tbb::parallel_invoke([&] { retopologise(massTree, massLeaves, newKeys); },
+                                 [&] { retopologise(velocityTree, velocityLeaves, newKeys); });
             keys.swap(newKeys);
+            topologyId = nextTopologyId();
         }
-        blocksOfParticleLeaf.resize(particles.leafCount());
-        for (std::size_t l = 0; l < particles.leafCount(); ++l) {
-            blocksOfParticleLeaf[l].fill(-1);
-            for (int o = 0; o < no; ++o)
-                blocksOfParticleLeaf[l][o] = findKey(keys, shifted(particles.leaves[l], o, +1));
-        }
-        particleLeavesOfBlock.resize(keys.size());
-        for (std::size_t b = 0; b < keys.size(); ++b) {
-            particleLeavesOfBlock[b].fill(-1);
-            for (int o = 0; o < no; ++o)
-                particleLeavesOfBlock[b][o] = findKey(particles.leaves, shifted(keys[b], o, -1));
-        }
+        const auto neighbours = [no](const std::vector<LeafKey>& from, int sign,
+                                     const std::vector<LeafKey>& in,
+                                     std::vector<NeighbourIndices>& out) {
+            out.resize(from.size());
+            tbb::parallel_for(tbb::blocked_range<std::size_t>(0, from.size(), 256),
+                              [&](const auto& r) {
+                                  for (std::size_t l = r.begin(); l != r.end(); ++l) {
+                                      out[l].fill(-1);
+                                      for (int o = 0; o < no; ++o)
+                                          out[l][o] = findKey(in, shifted(from[l], o, sign));
+                                  }
+                              });
+        };
+        neighbours(particles.leaves, +1, keys, blocksOfParticleLeaf);
+        neighbours(keys, -1, particles.leaves, particleLeavesOfBlock);
     }
 
     // Keeps the leaves that stay (their buffers are rewritten by every P2G), frees the rest
@@ -111,6 +128,9 @@ std::size_t Grid::blockCount() const {
 }
 const LeafKey& Grid::blockKey(std::size_t b) const {
     return mImpl->keys[b];
+}
+std::uint64_t Grid::topologyId() const {
+    return mImpl->topologyId;
 }
 float* Grid::mass(std::size_t b) {
     return mImpl->massLeaves[b]->buffer().data();

@@ -206,9 +206,10 @@ namespace {
 
 /// The snow's columns of dx over a bed (x in 2D; x and z in 3D): the volume over each and whether
 /// it touches the bed. A particle's column and its nearness to the bed are found in parallel;
-/// the volumes are then summed serially in particle order (so bitwise the same for any thread
-/// count), into a dense array over the particles' box of columns, or a hash map where that box
-/// is far larger than the particle count (snow scattered far apart).
+/// the volumes are summed in particle order (so bitwise the same for any thread count), into a
+/// dense array over the particles' box of columns, or a hash map where that box is far larger
+/// than the particle count (snow scattered far apart). The dense sums run in parallel over
+/// ranges of columns, each range's task reading every particle's column and adding its own.
 class BedColumns {
 public:
     BedColumns(const ParticleSet& ps, const Collider& bed, float dx, bool is3d)
@@ -232,12 +233,26 @@ public:
         mSpanX = *std::max_element(mColumnX.begin(), mColumnX.end()) - mMinX + 1;
         const std::int64_t spanZ = *std::max_element(mColumnZ.begin(), mColumnZ.end()) - mMinZ + 1;
         mDense = mSpanX * spanZ <= std::int64_t(8 * n + 65536);
-        if (mDense) mColumns.resize(std::size_t(mSpanX * spanZ));
-        for (std::size_t i = 0; i < n; ++i) {
-            Column& c = mDense ? mColumns[denseIndex(i)] : mScattered[key(i)];
-            c.volume += ps.volume0[i];
-            c.onBed = c.onBed || mNearBed[i];
+        if (!mDense) {
+            for (std::size_t i = 0; i < n; ++i) add(mScattered[key(i)], ps, i);
+            return;
         }
+        const std::size_t columns = std::size_t(mSpanX * spanZ);
+        mColumns.resize(columns);
+        mDenseIndex.resize(n);
+        tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const auto& r) {
+            for (std::size_t i = r.begin(); i != r.end(); ++i)
+                mDenseIndex[i] =
+                    std::uint32_t((mColumnZ[i] - mMinZ) * mSpanX + (mColumnX[i] - mMinX));
+        });
+        const std::size_t pieces = std::clamp<std::size_t>(columns / 1024, 1, 8);
+        tbb::parallel_for(std::size_t(0), pieces, [&](std::size_t piece) {
+            const std::uint32_t lo = std::uint32_t(columns * piece / pieces),
+                                hi = std::uint32_t(columns * (piece + 1) / pieces);
+            for (std::size_t i = 0; i < n; ++i)
+                if (mDenseIndex[i] >= lo && mDenseIndex[i] < hi)
+                    add(mColumns[mDenseIndex[i]], ps, i);
+        });
     }
     /// The column of particle i: its snow's volume (m^3, 2D: m^2) and whether it touches the bed.
     double volume(std::size_t i) const { return column(i).volume; }
@@ -248,18 +263,20 @@ private:
         double volume = 0.0;
         bool onBed = false;
     };
-    std::size_t denseIndex(std::size_t i) const {
-        return std::size_t((mColumnZ[i] - mMinZ) * mSpanX + (mColumnX[i] - mMinX));
+    void add(Column& c, const ParticleSet& ps, std::size_t i) const {
+        c.volume += ps.volume0[i];
+        c.onBed = c.onBed || mNearBed[i];
     }
     std::int64_t key(std::size_t i) const {
         return (mColumnX[i] << 32) ^ (mColumnZ[i] & 0xffffffff);
     }
     const Column& column(std::size_t i) const {
-        return mDense ? mColumns[denseIndex(i)] : mScattered.find(key(i))->second;
+        return mDense ? mColumns[mDenseIndex[i]] : mScattered.find(key(i))->second;
     }
 
     std::vector<std::int64_t> mColumnX, mColumnZ;
     std::vector<std::uint8_t> mNearBed;
+    std::vector<std::uint32_t> mDenseIndex;
     std::int64_t mMinX = 0, mMinZ = 0, mSpanX = 0;
     bool mDense = true;
     std::vector<Column> mColumns;
