@@ -8,6 +8,9 @@
 #include <cpl_conv.h>
 #include <gdal.h>
 #include <ogr_srs_api.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -48,43 +51,64 @@ void PeakFields::accumulate(const ParticleSet& ps) {
     // bilinear weights. Binning into one cell aliases a particle lattice against the raster (a
     // 5 m cell over particles 2 m apart holds 4, 6 or 9 columns: +-40 % of thickness), and the
     // peak over many samples would keep the highest of that noise.
-    auto deposit = [this](int column, int row, double w, double m, double vol, double mu) {
-        if (column < 0 || row < 0 || column >= mColumns || row >= mRows || w <= 0.0) return;
-        const std::size_t c = index(column, row);
-        if (mMass[c] == 0.0) mTouched.push_back(std::uint32_t(c));
-        mMass[c] += w * m;
-        mVolume[c] += w * vol;
-        mMomentum[c] += w * mu;
-    };
-    for (std::size_t i = 0; i < ps.size(); ++i) {
-        const Vec3f& x = ps.x[i];
-        const double u = (x[0] - mWest) * inverseCell - 0.5,
-                     v = (x[2] - mSouth) * inverseCell - 0.5;
-        if (!(u > -1.0 && v > -1.0 && u < mColumns && v < mRows)) continue; // off the grid
-        const int i0 = int(std::floor(u)), j0 = int(std::floor(v));
-        const double fu = u - i0, fv = v - j0;
-        const double m = ps.mass[i], vol = ps.volume0[i], mu = m * double(ps.v[i].norm());
-        deposit(i0, j0, (1 - fu) * (1 - fv), m, vol, mu);
-        deposit(i0 + 1, j0, fu * (1 - fv), m, vol, mu);
-        deposit(i0, j0 + 1, (1 - fu) * fv, m, vol, mu);
-        deposit(i0 + 1, j0 + 1, fu * fv, m, vol, mu);
-    }
+    // In parallel over bands of rows: each band's task reads every particle and deposits into
+    // its own rows, so each cell's sum runs in particle order whatever the thread count.
+    const int bands = std::clamp(mRows / 16, 1, tbb::this_task_arena::max_concurrency());
+    std::vector<std::vector<std::uint32_t>> touched(static_cast<std::size_t>(bands));
+    tbb::parallel_for(0, bands, [&](int band) {
+        const int rowBegin = int(std::int64_t(mRows) * band / bands),
+                  rowEnd = int(std::int64_t(mRows) * (band + 1) / bands);
+        std::vector<std::uint32_t>& touchedHere = touched[std::size_t(band)];
+        auto deposit = [&](int column, int row, double w, double m, double vol, double mu) {
+            if (column < 0 || row < rowBegin || column >= mColumns || row >= rowEnd || w <= 0.0)
+                return;
+            const std::size_t c = index(column, row);
+            if (mMass[c] == 0.0) touchedHere.push_back(std::uint32_t(c));
+            mMass[c] += w * m;
+            mVolume[c] += w * vol;
+            mMomentum[c] += w * mu;
+        };
+        for (std::size_t i = 0; i < ps.size(); ++i) {
+            const Vec3f& x = ps.x[i];
+            const double u = (x[0] - mWest) * inverseCell - 0.5,
+                         v = (x[2] - mSouth) * inverseCell - 0.5;
+            if (!(u > -1.0 && v > -1.0 && u < mColumns && v < mRows)) continue; // off the grid
+            const int i0 = int(std::floor(u)), j0 = int(std::floor(v));
+            if (j0 + 1 < rowBegin || j0 >= rowEnd) continue; // neither row is this band's
+            const double fu = u - i0, fv = v - j0;
+            const double m = ps.mass[i], vol = ps.volume0[i], mu = m * double(ps.v[i].norm());
+            deposit(i0, j0, (1 - fu) * (1 - fv), m, vol, mu);
+            deposit(i0 + 1, j0, fu * (1 - fv), m, vol, mu);
+            deposit(i0, j0 + 1, (1 - fu) * fv, m, vol, mu);
+            deposit(i0 + 1, j0 + 1, fu * fv, m, vol, mu);
+        }
+    });
+    for (const auto& list : touched) mTouched.insert(mTouched.end(), list.begin(), list.end());
+    // A cell is listed when its mass leaves zero; a particle without mass would list it twice,
+    // and the parallel pass below must see each cell once.
+    std::sort(mTouched.begin(), mTouched.end());
+    mTouched.erase(std::unique(mTouched.begin(), mTouched.end()), mTouched.end());
     const double area = mCell * mCell;
     // The deposit is the last sample: cells the snow has left go back to 0 (only those the
     // previous sample touched: clearing the whole raster each step would cost more than the
     // sampling itself for small releases on large DEMs).
     for (std::uint32_t c : mLastTouched) mDeposit[c] = 0.f;
-    for (std::uint32_t c : mTouched) {
-        const double thickness = mVolume[c] / area * mCosSlope[c];
-        const double speed = mMomentum[c] / mMass[c];
-        const double pressure = mMass[c] / mVolume[c] * speed * speed / 1000.0; // kPa
-        mPeakThickness[c] = std::max(mPeakThickness[c], float(thickness));
-        mPeakSpeed[c] = std::max(mPeakSpeed[c], float(speed));
-        mPeakPressure[c] = std::max(mPeakPressure[c], float(pressure));
-        mDeposit[c] = float(thickness);
-        if (mSamples == 0) mRelease[c] = float(thickness);
-        mMass[c] = mVolume[c] = mMomentum[c] = 0.0;
-    }
+    const bool first = mSamples == 0;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, mTouched.size(), 1024), [&](const auto& r) {
+            for (std::size_t k = r.begin(); k != r.end(); ++k) {
+                const std::uint32_t c = mTouched[k];
+                const double thickness = mVolume[c] / area * mCosSlope[c];
+                const double speed = mMomentum[c] / mMass[c];
+                const double pressure = mMass[c] / mVolume[c] * speed * speed / 1000.0; // kPa
+                mPeakThickness[c] = std::max(mPeakThickness[c], float(thickness));
+                mPeakSpeed[c] = std::max(mPeakSpeed[c], float(speed));
+                mPeakPressure[c] = std::max(mPeakPressure[c], float(pressure));
+                mDeposit[c] = float(thickness);
+                if (first) mRelease[c] = float(thickness);
+                mMass[c] = mVolume[c] = mMomentum[c] = 0.0;
+            }
+        });
     mLastTouched.swap(mTouched);
     mTouched.clear();
     ++mSamples;
