@@ -341,3 +341,17 @@ TEST_CASE("XPIC(m) keeps what the grid can carry as m grows and drops FLIP's noi
         CHECK(noiseXpic < 0.02);
     }
 }
+
+TEST_CASE("G2P's squared-speed bound flags exactly the speeds above kMovedSpeed", "[transfer]") {
+    // Every float within 4 096 ulps of the bound, each side: the root of those above it exceeds
+    // kMovedSpeed, of the others not (so a flag set from squares is the flag set from speeds).
+    const float bound = movedSpeedSquaredBound();
+    float s = bound;
+    for (int k = 0; k < 4096; ++k) s = std::nextafter(s, 0.f);
+    int above = 0;
+    for (int k = 0; k < 8193; ++k, s = std::nextafter(s, 1.f)) {
+        REQUIRE((std::sqrt(s) > kMovedSpeed) == (s > bound));
+        above += s > bound;
+    }
+    REQUIRE(above == 4096);
+}

@@ -94,6 +94,11 @@ void subtractXpicProjection(Grid& grid, const TransferScratch& scratch);
 /// for F), position x += dt v_pic and trial F = (I + dt C) F. Returns the largest speed.
 float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params);
 
+/// The largest float s whose square root (std::sqrt, rounded) is at most kMovedSpeed: for every
+/// float s, std::sqrt(s) > kMovedSpeed exactly when s > this bound, the root being monotone. G2P
+/// flags moving snow from squared speeds, without a root per particle.
+float movedSpeedSquaredBound();
+
 /// Rasterises mass, velocity and failed mass fraction of the particles onto the grid's leaves
 /// with the same weights as P2G, for the volume cache. Grid must be rebuilt for `particles`.
 VolumeFrame rasterizeVolumes(const ParticleSet& particles, const Grid& grid,

@@ -575,6 +575,7 @@ inline void updateAffinePlane(float c00, float c01, float c10, float c11, float 
 
 template <int Dim, bool Flip>
 float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
+    const float movedBound = movedSpeedSquaredBound();
     const float invDx = 1.f / ps.dx;
     const float cScale = apicInverseD(invDx) * ps.dx; // C = 4/dx^2 B with offsets in grid units
     const float dt = params.dt, flip = params.flipBlend;
@@ -583,9 +584,9 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
     const int auxStride = layout.channels();
     const auto velocityField = [&grid](std::size_t b) { return grid.velocity(b); };
     const auto auxField = [&grid](std::size_t b) { return grid.aux(b); };
-    return tbb::parallel_reduce(
+    return std::sqrt(tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(0, ps.leafCount(), 1), 0.f,
-        [&](const auto& r, float maxSpeed) {
+        [&](const auto& r, float maxSpeedSquared) {
             constexpr int channels = g2pLanes<Flip>();
             alignas(32) float local[paddedNodes<Dim>() * channels];
             alignas(32) float upperLocal[paddedNodes<Dim>() * channels]; // the upper field's
@@ -651,12 +652,16 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                         const Mat3f dtC = dt * C;
                         ps.H[i] += dtC + dtC * ps.H[i];
                     }
-                    const float speed = vNew.norm();
-                    if (speed > kMovedSpeed) ps.plastic[i].flags |= kFlagMoved;
+                    // Squared speeds: the square root's latency held each particle up (perf
+                    // annotate), and it is monotone, so the flag and the maximum are those of
+                    // the speeds, bit for bit (movedSpeedSquaredBound); one root at the end.
+                    const float speedSquared = vNew.squaredNorm();
+                    if (speedSquared > movedBound) ps.plastic[i].flags |= kFlagMoved;
                     // NaN compares false: make it win the reduction so the caller sees it.
-                    maxSpeed = speed == speed ? std::max(maxSpeed, speed)
-                                              : std::numeric_limits<float>::quiet_NaN();
-                    return maxSpeed == maxSpeed;
+                    maxSpeedSquared = speedSquared == speedSquared
+                                          ? std::max(maxSpeedSquared, speedSquared)
+                                          : std::numeric_limits<float>::quiet_NaN();
+                    return maxSpeedSquared == maxSpeedSquared;
                 };
                 const auto single = [&](std::uint32_t i) {
                     Vec3f vPic, dvFlip;
@@ -672,7 +677,7 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                 for (std::uint32_t i = ps.leafStart[l]; i < ps.leafStart[l + 1]; ++i) {
                     if (ps.asleep(i)) continue;
                     if (!pairs) {
-                        if (!single(i)) return maxSpeed;
+                        if (!single(i)) return maxSpeedSquared;
                         continue;
                     }
                     if (pending == kNone) {
@@ -686,14 +691,14 @@ float g2p(ParticleSet& ps, const Grid& grid, const TransferParams& params) {
                                        localOf(i), vPic, B);
                     if (!update(pending, vPic[0], B[0], Vec3f::Zero()) ||
                         !update(i, vPic[1], B[1], Vec3f::Zero()))
-                        return maxSpeed;
+                        return maxSpeedSquared;
                     pending = kNone;
                 }
-                if (pending != kNone && !single(pending)) return maxSpeed;
+                if (pending != kNone && !single(pending)) return maxSpeedSquared;
             }
-            return maxSpeed;
+            return maxSpeedSquared;
         },
-        [](float a, float b) { return (a != a || b != b) ? a + b : std::max(a, b); });
+        [](float a, float b) { return (a != a || b != b) ? a + b : std::max(a, b); }));
 }
 
 /// S w at a particle: a 3-channel node field of the padded block interpolated.
@@ -837,6 +842,16 @@ void subtractXpicProjection(Grid& grid, const TransferScratch& scratch) {
                     for (int c = 0; c < 3; ++c)
                         grid.aux(b)[stride * n + c] -= sum[(b * kLeafNodes + n) * 3 + c];
         });
+}
+
+float movedSpeedSquaredBound() {
+    static const float bound = [] {
+        float s = kMovedSpeed * kMovedSpeed;
+        while (std::sqrt(s) > kMovedSpeed) s = std::nextafter(s, 0.f);
+        while (std::sqrt(std::nextafter(s, 1.f)) <= kMovedSpeed) s = std::nextafter(s, 1.f);
+        return s;
+    }();
+    return bound;
 }
 
 float gridToParticles(ParticleSet& particles, const Grid& grid, const TransferParams& params) {
