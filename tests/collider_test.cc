@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <random>
@@ -287,4 +288,46 @@ TEST_CASE("a profile's distance and normal are those of its nearest segment", "[
     REQUIRE(worst < 1e-4 + 1e-6 * 300.0);
     // Only a point equidistant from two segments to float rounding may take the other's normal.
     REQUIRE(normalMismatches <= 2);
+}
+
+TEST_CASE("a heightfield's one-lookup distance and normal are bitwise its two lookups'",
+          "[collider]") {
+    // A rough DEM (random heights), so that every cell has its own gradient; points inside it,
+    // beyond its edges (clamped) and on its cell lines.
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> height(0.f, 30.f);
+    std::vector<float> heights(12 * 9);
+    for (float& h : heights) h = height(rng);
+    TerrainDesc desc;
+    desc.shape = TerrainShape::Heightfield;
+    test::TempDir dir("firn-dem-rough");
+    desc.file = dir.path() + "/rough.asc";
+    {
+        std::ofstream out(desc.file);
+        out << "ncols 12\nnrows 9\nxllcorner -2.5\nyllcorner -2.5\ncellsize 5\n";
+        out.precision(9);
+        for (float h : heights) out << h << "\n";
+    }
+    const Collider ground = Collider::fromDesc(desc, 3);
+    std::uniform_real_distribution<float> x(-10.f, 65.f), y(-5.f, 40.f), z(-10.f, 50.f);
+    for (int k = 0; k < 20000; ++k) {
+        const Vec3f p(k % 7 == 0 ? 5.f * float(k % 13) : x(rng), y(rng), z(rng));
+        Vec3f n;
+        const float d = ground.signedDistance(p, n);
+        const float expected = ground.signedDistance(p);
+        REQUIRE(std::memcmp(&d, &expected, sizeof d) == 0);
+        const Vec3f normal = ground.normal(p);
+        REQUIRE(std::memcmp(n.data(), normal.data(), sizeof(float) * 3) == 0);
+    }
+    const Heightfield& dem = *ground.heightfield();
+    for (int k = 0; k < 20000; ++k) {
+        const float px = x(rng), pz = z(rng);
+        float h = 0.f, hx = 0.f, hz = 0.f, gx = 0.f, gz = 0.f;
+        dem.sampleAt(px, pz, h, hx, hz);
+        dem.gradientAt(px, pz, gx, gz);
+        const float expected = dem.heightAt(px, pz);
+        REQUIRE(std::memcmp(&h, &expected, sizeof h) == 0);
+        REQUIRE(std::memcmp(&hx, &gx, sizeof hx) == 0);
+        REQUIRE(std::memcmp(&hz, &gz, sizeof hz) == 0);
+    }
 }

@@ -47,6 +47,8 @@ public:
     float heightAt(float x, float z) const;
     /// dh/dx and dh/dz of the bilinear interpolant at (x, z).
     void gradientAt(float x, float z, float& dhdx, float& dhdz) const;
+    /// heightAt and gradientAt together, bitwise theirs, from one cell lookup.
+    void sampleAt(float x, float z, float& height, float& dhdx, float& dhdz) const;
 
     int columns() const { return mColumns; }
     int rows() const { return mRows; }
@@ -74,6 +76,9 @@ private:
     float at(int column, int row) const;
     /// Cell and fractions of (x, z), clamped to the grid.
     void locate(float x, float z, int& i, int& j, float& fx, float& fz) const;
+    /// The bilinear height and gradient in cell (i, j) at fractions (fx, fz).
+    float heightIn(int i, int j, float fx, float fz) const;
+    void gradientIn(int i, int j, float fx, float fz, float& dhdx, float& dhdz) const;
 };
 
 } // namespace firn

@@ -7,6 +7,25 @@
 
 namespace firn {
 
+namespace {
+
+// Each of these is one out-of-line function, so that every caller gets the same roundings: the
+// compiler contracts multiplies and adds into FMAs by context, and inlined beside another use
+// of hx * hx (the normal beside the distance) it contracted them differently.
+
+/// Height above the ground times the cosine of the local slope: the distance to the tangent
+/// plane, exact on planar patches and first order elsewhere.
+[[gnu::noinline]] float distanceAbove(float y, float height, float hx, float hz) {
+    return (y - height) / std::sqrt(1.f + hx * hx + hz * hz);
+}
+
+/// The outward unit normal of a ground with slope (dh/dx, dh/dz).
+[[gnu::noinline]] Vec3f normalOfSlope(float hx, float hz) {
+    return Vec3f(-hx, 1.f, -hz).normalized();
+}
+
+} // namespace
+
 Collider Collider::fromDesc(const TerrainDesc& desc, int dim) {
     Collider c;
     c.mShape = desc.shape;
@@ -123,11 +142,9 @@ bool Collider::clearOf(const Vec3f& x, float reach) const {
 float Collider::signedDistance(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal.dot(x - mPoint);
     if (mHeightfield) {
-        // Height above the ground times the cosine of the local slope: the distance to the
-        // tangent plane, exact on planar patches and first order elsewhere.
-        float hx = 0.f, hz = 0.f;
-        mHeightfield->gradientAt(x[0], x[2], hx, hz);
-        return (x[1] - mHeightfield->heightAt(x[0], x[2])) / std::sqrt(1.f + hx * hx + hz * hz);
+        float h = 0.f, hx = 0.f, hz = 0.f;
+        mHeightfield->sampleAt(x[0], x[2], h, hx, hz);
+        return distanceAbove(x[1], h, hx, hz);
     }
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
@@ -139,7 +156,7 @@ Vec3f Collider::normal(const Vec3f& x) const {
     if (mHeightfield) {
         float hx = 0.f, hz = 0.f;
         mHeightfield->gradientAt(x[0], x[2], hx, hz);
-        return Vec3f(-hx, 1.f, -hz).normalized();
+        return normalOfSlope(hx, hz);
     }
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
@@ -150,6 +167,17 @@ Vec3f Collider::normal(const Vec3f& x) const {
     const std::size_t s = profileSegmentAt(x[0]);
     Vec3f seg(mProfile[s + 1][0] - mProfile[s][0], mProfile[s + 1][1] - mProfile[s][1], 0.f);
     return Vec3f(-seg[1], seg[0], 0.f).normalized();
+}
+
+float Collider::signedDistance(const Vec3f& x, Vec3f& n) const {
+    if (!mHeightfield) {
+        n = normal(x);
+        return signedDistance(x);
+    }
+    float h = 0.f, hx = 0.f, hz = 0.f;
+    mHeightfield->sampleAt(x[0], x[2], h, hx, hz);
+    n = normalOfSlope(hx, hz);
+    return distanceAbove(x[1], h, hx, hz);
 }
 
 bool Collider::carriesWeight(const Vec3f& gravity) const {

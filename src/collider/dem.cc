@@ -236,22 +236,38 @@ void Heightfield::locate(float x, float z, int& i, int& j, float& fx, float& fz)
     fx = float(u - i), fz = float(v - j);
 }
 
+float Heightfield::heightIn(int i, int j, float fx, float fz) const {
+    const float south = at(i, j) + fx * (at(i + 1, j) - at(i, j));
+    const float north = at(i, j + 1) + fx * (at(i + 1, j + 1) - at(i, j + 1));
+    return south + fz * (north - south);
+}
+
+void Heightfield::gradientIn(int i, int j, float fx, float fz, float& dhdx, float& dhdz) const {
+    const float cell = float(mCell);
+    dhdx = ((1.f - fz) * (at(i + 1, j) - at(i, j)) + fz * (at(i + 1, j + 1) - at(i, j + 1))) / cell;
+    dhdz = ((1.f - fx) * (at(i, j + 1) - at(i, j)) + fx * (at(i + 1, j + 1) - at(i + 1, j))) / cell;
+}
+
 float Heightfield::heightAt(float x, float z) const {
     int i = 0, j = 0;
     float fx = 0.f, fz = 0.f;
     locate(x, z, i, j, fx, fz);
-    const float south = at(i, j) + fx * (at(i + 1, j) - at(i, j));
-    const float north = at(i, j + 1) + fx * (at(i + 1, j + 1) - at(i, j + 1));
-    return south + fz * (north - south);
+    return heightIn(i, j, fx, fz);
 }
 
 void Heightfield::gradientAt(float x, float z, float& dhdx, float& dhdz) const {
     int i = 0, j = 0;
     float fx = 0.f, fz = 0.f;
     locate(x, z, i, j, fx, fz);
-    const float cell = float(mCell);
-    dhdx = ((1.f - fz) * (at(i + 1, j) - at(i, j)) + fz * (at(i + 1, j + 1) - at(i, j + 1))) / cell;
-    dhdz = ((1.f - fx) * (at(i, j + 1) - at(i, j)) + fx * (at(i + 1, j + 1) - at(i + 1, j))) / cell;
+    gradientIn(i, j, fx, fz, dhdx, dhdz);
+}
+
+void Heightfield::sampleAt(float x, float z, float& height, float& dhdx, float& dhdz) const {
+    int i = 0, j = 0;
+    float fx = 0.f, fz = 0.f;
+    locate(x, z, i, j, fx, fz);
+    height = heightIn(i, j, fx, fz);
+    gradientIn(i, j, fx, fz, dhdx, dhdz);
 }
 
 } // namespace firn
