@@ -41,12 +41,13 @@ public:
     /// Names the blocks' keys: it changes whenever they change, and no two topologies of any
     /// grid in the process share one (a store keyed by blocks, NodeContacts, can skip a bind).
     std::uint64_t topologyId() const;
-    float* mass(std::size_t b);     ///< kLeafNodes floats (VDB FloatTree leaf buffer)
-    float* velocity(std::size_t b); ///< 3 * kLeafNodes floats (VDB Vec3fTree leaf buffer)
-    float* aux(std::size_t b);      ///< auxChannels * kLeafNodes floats
-    const float* mass(std::size_t b) const;
-    const float* velocity(std::size_t b) const;
-    const float* aux(std::size_t b) const;
+    // Inline: the transfers, the grid update and the sticky walls ask per node.
+    float* mass(std::size_t b) { return mMassData[b]; } ///< kLeafNodes floats (VDB leaf buffer)
+    float* velocity(std::size_t b) { return mVelocityData[b]; } ///< 3 * kLeafNodes floats
+    float* aux(std::size_t b) { return mAux + b * mAuxStride; } ///< auxChannels * kLeafNodes
+    const float* mass(std::size_t b) const { return mMassData[b]; }
+    const float* velocity(std::size_t b) const { return mVelocityData[b]; }
+    const float* aux(std::size_t b) const { return mAux + b * mAuxStride; }
     int auxChannels() const;
 
     /// The block of leaf key `key`, or -1 where the grid has none.
@@ -62,6 +63,9 @@ public:
 
 private:
     struct Impl;
+    std::vector<float*> mMassData, mVelocityData; ///< each block's leaf buffer (Impl's trees)
+    float* mAux = nullptr;
+    std::size_t mAuxStride = 0;
     std::unique_ptr<Impl> mImpl;
 };
 

@@ -44,6 +44,11 @@ std::uint64_t nextTopologyId() {
 } // namespace
 
 struct Grid::Impl {
+    std::vector<float*>& massData;     ///< Grid's, the leaves' buffers by block
+    std::vector<float*>& velocityData; ///< (kept there so that the accessors inline)
+    explicit Impl(Grid& grid)
+        : massData(grid.mMassData)
+        , velocityData(grid.mVelocityData) {}
     MassTree massTree{0.f};
     VelocityTree velocityTree{openvdb::Vec3f(0.f)};
     std::vector<LeafKey> keys;
@@ -74,6 +79,13 @@ struct Grid::Impl {
             tbb::parallel_invoke([&] { retopologise(massTree, massLeaves, newKeys); },
                                  [&] { retopologise(velocityTree, velocityLeaves, newKeys); });
             keys.swap(newKeys);
+            // A leaf keeps its buffer while it lives (P2G writes through these pointers).
+            massData.resize(keys.size());
+            velocityData.resize(keys.size());
+            for (std::size_t b = 0; b < keys.size(); ++b) {
+                massData[b] = massLeaves[b]->buffer().data();
+                velocityData[b] = reinterpret_cast<float*>(velocityLeaves[b]->buffer().data());
+            }
             topologyId = nextTopologyId();
         }
         const auto neighbours = [no](const std::vector<LeafKey>& from, int sign,
@@ -111,7 +123,7 @@ struct Grid::Impl {
 };
 
 Grid::Grid()
-    : mImpl(new Impl) {}
+    : mImpl(new Impl(*this)) {}
 Grid::~Grid() = default;
 
 void Grid::rebuild(const ParticleSet& particles, int auxChannels) {
@@ -121,6 +133,8 @@ void Grid::rebuild(const ParticleSet& particles, int auxChannels) {
         g.buildTopology(particles);
     g.auxChannels = auxChannels;
     g.aux.resize(std::size_t(auxChannels) * kLeafNodes * g.keys.size());
+    mAux = g.aux.data();
+    mAuxStride = std::size_t(auxChannels) * kLeafNodes;
 }
 
 std::size_t Grid::blockCount() const {
@@ -131,24 +145,6 @@ const LeafKey& Grid::blockKey(std::size_t b) const {
 }
 std::uint64_t Grid::topologyId() const {
     return mImpl->topologyId;
-}
-float* Grid::mass(std::size_t b) {
-    return mImpl->massLeaves[b]->buffer().data();
-}
-const float* Grid::mass(std::size_t b) const {
-    return mImpl->massLeaves[b]->buffer().data();
-}
-float* Grid::velocity(std::size_t b) {
-    return reinterpret_cast<float*>(mImpl->velocityLeaves[b]->buffer().data());
-}
-const float* Grid::velocity(std::size_t b) const {
-    return reinterpret_cast<const float*>(mImpl->velocityLeaves[b]->buffer().data());
-}
-float* Grid::aux(std::size_t b) {
-    return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
-}
-const float* Grid::aux(std::size_t b) const {
-    return mImpl->aux.data() + b * std::size_t(mImpl->auxChannels) * kLeafNodes;
 }
 int Grid::auxChannels() const {
     return mImpl->auxChannels;
