@@ -63,9 +63,15 @@ public:
     bool clearOf(const Vec3f& x, float reach) const;
     /// Outward unit normal of the nearest surface point.
     Vec3f normal(const Vec3f& x) const;
-    /// signedDistance(x), with normal(x) in `n`, bitwise theirs: a heightfield looks its cell up
-    /// once for both (the basal drag asks both of every particle, every step).
-    float signedDistance(const Vec3f& x, Vec3f& n) const;
+    /// The ground's slope (dh/dx, dh/dz) where a heightfield was looked up, for normal(x, slope).
+    struct Slope {
+        float dhdx = 0.f, dhdz = 0.f;
+    };
+    /// signedDistance(x), keeping in `slope` what normal(x, slope) needs: a heightfield looks its
+    /// cell up once for both (the basal drag asks both of most particles, every step).
+    float signedDistance(const Vec3f& x, Slope& slope) const;
+    /// normal(x), bitwise, from the slope that signedDistance(x, slope) kept.
+    Vec3f normal(const Vec3f& x, const Slope& slope) const;
     /// Ground height under x (profile and plane; used to drape layers), m.
     float heightAt(float xCoord, float zCoord) const;
     /// True where this collider has ground of its own under (x, z): a heightfield within its

@@ -33,9 +33,15 @@ public:
 
     /// The outward normal of `collider` (index c) at node n of block b if the node lies within
     /// `reach` of it (Collider::clearOf, signedDistance <= reach), else none. xn is the node's
-    /// position. Only the thread that works on block b may ask about it.
+    /// position. Only the thread that works on block b may ask about it. Inline for the known
+    /// answers (the grid update asks every node with mass, every step).
     std::optional<Vec3f> contact(std::size_t b, int n, std::size_t c, const Collider& collider,
-                                 const Vec3f& xn, float reach);
+                                 const Vec3f& xn, float reach) {
+        const std::uint16_t s = mStates[b][std::size_t(n) * mSlots + c];
+        if (s == kClear) return std::nullopt;
+        if (s == kUnknown) return firstContact(b, n, c, collider, xn, reach);
+        return (*mNormals[b])[s - kInContact];
+    }
 
     /// The slip surface's normal at node n of block b, `compute()` on the first ask.
     template <class Compute> Vec3f slipNormal(std::size_t b, int n, Compute&& compute) {
@@ -90,12 +96,16 @@ private:
     std::uint16_t& state(std::size_t b, int n, std::size_t slot);
     std::uint16_t keep(std::size_t b, const Vec3f& normal);
     const Vec3f& normalOf(std::size_t b, std::uint16_t state) const;
+    std::optional<Vec3f> firstContact(std::size_t b, int n, std::size_t c, const Collider& collider,
+                                      const Vec3f& xn, float reach);
     const std::vector<WallNode>* knownWalls(std::size_t b) const;
     const std::vector<WallNode>& keepWalls(std::size_t b, std::vector<WallNode>&& walls);
     struct Leaves;
     std::unique_ptr<Leaves> mLeaves;
-    std::vector<Leaf*> mBlocks;       ///< per block of the bound grid: its leaf's records
-    std::uint64_t mBoundTopology = 0; ///< Grid::topologyId of the bound grid (0: none)
+    std::vector<Leaf*> mBlocks;                ///< per block of the bound grid: its leaf's records
+    std::vector<std::uint16_t*> mStates;       ///< per block: its leaf's states (never resized)
+    std::vector<std::vector<Vec3f>*> mNormals; ///< per block: its leaf's normals
+    std::uint64_t mBoundTopology = 0;          ///< Grid::topologyId of the bound grid (0: none)
     std::size_t mColliderCount = 0;
     std::size_t mSlots = 0; ///< colliders and the slip surface's normal when asked for
     std::size_t mSlipSlot = 0;

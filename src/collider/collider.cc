@@ -169,15 +169,15 @@ Vec3f Collider::normal(const Vec3f& x) const {
     return Vec3f(-seg[1], seg[0], 0.f).normalized();
 }
 
-float Collider::signedDistance(const Vec3f& x, Vec3f& n) const {
-    if (!mHeightfield) {
-        n = normal(x);
-        return signedDistance(x);
-    }
-    float h = 0.f, hx = 0.f, hz = 0.f;
-    mHeightfield->sampleAt(x[0], x[2], h, hx, hz);
-    n = normalOfSlope(hx, hz);
-    return distanceAbove(x[1], h, hx, hz);
+float Collider::signedDistance(const Vec3f& x, Slope& slope) const {
+    if (!mHeightfield) return signedDistance(x);
+    float h = 0.f;
+    mHeightfield->sampleAt(x[0], x[2], h, slope.dhdx, slope.dhdz);
+    return distanceAbove(x[1], h, slope.dhdx, slope.dhdz);
+}
+
+Vec3f Collider::normal(const Vec3f& x, const Slope& slope) const {
+    return mHeightfield ? normalOfSlope(slope.dhdx, slope.dhdz) : normal(x);
 }
 
 bool Collider::carriesWeight(const Vec3f& gravity) const {

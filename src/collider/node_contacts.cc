@@ -47,6 +47,8 @@ NodeContacts& NodeContacts::operator=(NodeContacts&&) noexcept = default;
 void NodeContacts::clear() {
     mLeaves->byKey.clear();
     mBlocks.clear();
+    mStates.clear();
+    mNormals.clear();
     mBoundTopology = 0;
 }
 
@@ -78,11 +80,15 @@ void NodeContacts::bind(const Grid& grid, std::size_t colliderCount, bool slipSu
     const std::uint64_t now = ++leaves.binds;
     const std::size_t blocks = grid.blockCount();
     mBlocks.resize(blocks);
+    mStates.resize(blocks);
+    mNormals.resize(blocks);
     for (std::size_t b = 0; b < blocks; ++b) {
         Leaf& leaf = leaves.byKey[grid.blockKey(b)];
         if (leaf.states.empty()) leaf.states.assign(kLeafNodes * slots, kUnknown);
         leaf.lastBound = now;
         mBlocks[b] = &leaf;
+        mStates[b] = leaf.states.data();
+        mNormals[b] = &leaf.normals;
     }
     if (leaves.byKey.size() <= 2 * blocks + 256) return;
     for (auto it = leaves.byKey.begin(); it != leaves.byKey.end();)
@@ -103,13 +109,12 @@ const Vec3f& NodeContacts::normalOf(std::size_t b, std::uint16_t state) const {
     return mBlocks[b]->normals[state - kInContact];
 }
 
-std::optional<Vec3f> NodeContacts::contact(std::size_t b, int n, std::size_t c,
-                                           const Collider& collider, const Vec3f& xn, float reach) {
+std::optional<Vec3f> NodeContacts::firstContact(std::size_t b, int n, std::size_t c,
+                                                const Collider& collider, const Vec3f& xn,
+                                                float reach) {
     std::uint16_t& s = state(b, n, c);
-    if (s == kUnknown) {
-        const bool within = !collider.clearOf(xn, reach) && collider.signedDistance(xn) <= reach;
-        s = within ? keep(b, collider.normal(xn)) : std::uint16_t(kClear);
-    }
+    const bool within = !collider.clearOf(xn, reach) && collider.signedDistance(xn) <= reach;
+    s = within ? keep(b, collider.normal(xn)) : std::uint16_t(kClear);
     if (s == kClear) return std::nullopt;
     return normalOf(b, s);
 }

@@ -205,7 +205,7 @@ void updateGridVelocity(World& world, float dt) {
 namespace {
 
 /// The snow's columns of dx over a bed (x in 2D; x and z in 3D): the volume over each and whether
-/// it touches the bed. A particle's column, its nearness to the bed and the bed's normal are found
+/// it touches the bed. A particle's column, its nearness to the bed and the bed's slope are found
 /// in parallel; the volumes are summed in particle order (so bitwise the same for any thread
 /// count), into a dense array over the particles' box of columns, or a hash map where that box is
 /// far larger than the particle count (snow scattered far apart). The dense sums run in parallel
@@ -216,7 +216,7 @@ public:
         : mColumnX(ps.size())
         , mColumnZ(ps.size())
         , mNearBed(ps.size())
-        , mNormal(ps.size()) {
+        , mSlope(ps.size()) {
         const std::size_t n = ps.size();
         tbb::parallel_for(
             tbb::blocked_range<std::size_t>(0, n, 2048),
@@ -224,7 +224,7 @@ public:
                 for (std::size_t i = r.begin(); i != r.end(); ++i) {
                     mColumnX[i] = std::int64_t(std::floor(ps.x[i][0] / dx));
                     mColumnZ[i] = is3d ? std::int64_t(std::floor(ps.x[i][2] / dx)) : 0;
-                    mNearBed[i] = bed.signedDistance(ps.x[i], mNormal[i]) < dx;
+                    mNearBed[i] = bed.signedDistance(ps.x[i], mSlope[i]) < dx;
                 }
             },
             tbb::simple_partitioner());
@@ -258,8 +258,8 @@ public:
     /// The column of particle i: its snow's volume (m^3, 2D: m^2) and whether it touches the bed.
     double volume(std::size_t i) const { return column(i).volume; }
     bool onBed(std::size_t i) const { return column(i).onBed; }
-    /// The bed's outward normal at particle i (Collider::normal).
-    const Vec3f& normal(std::size_t i) const { return mNormal[i]; }
+    /// What the bed's normal at particle i needs (Collider::normal(x, slope)).
+    const Collider::Slope& slope(std::size_t i) const { return mSlope[i]; }
 
 private:
     struct Column {
@@ -279,7 +279,7 @@ private:
 
     std::vector<std::int64_t> mColumnX, mColumnZ;
     std::vector<std::uint8_t> mNearBed;
-    std::vector<Vec3f> mNormal;
+    std::vector<Collider::Slope> mSlope;
     std::vector<std::uint32_t> mDenseIndex;
     std::int64_t mMinX = 0, mMinZ = 0, mSpanX = 0;
     bool mDense = true;
@@ -307,7 +307,7 @@ void applyBasalDrag(World& world, float dt) {
             for (std::size_t i = r.begin(); i != r.end(); ++i) {
                 if (ps.asleep(i)) continue;
                 if (!columns.onBed(i)) continue; // airborne snow feels no bed
-                const Vec3f& n = columns.normal(i);
+                const Vec3f n = bed->normal(ps.x[i], columns.slope(i));
                 // Flow thickness normal to the bed: the column's vertical thickness times
                 // cos(slope).
                 const float h = float(columns.volume(i) / area) * std::max(n[1], 0.05f);
