@@ -111,33 +111,47 @@ void StickyWalls::fold(const std::vector<Collider>& colliders, Grid& grid, NodeC
 
     // The FLIP impulse (the lower field's, with a slip surface) is channel 0 of the aux channels.
     const int auxStride = grid.auxChannels();
-    // The fold (serial: targets are shared between ghosts; ghosts are never targets, so every
-    // ghost's own values are read unchanged). Row-sum lumping of T^T M T gives the mirror node
-    // w s m_g of mass (s = sum of the ghost's weights); T^T gives it -w of the ghost's momentum
-    // and stress impulse; gravity's load T^T M g is (m_j - sum w m_g) g, while the update will
-    // add dt g to the folded mass's velocity: the difference, -w (1 + s) m_g dt g, goes with
-    // the forces (the FLIP impulse, or the combined momentum and impulse of APIC and PIC).
-    for (const Ghost& g : mGhosts) {
-        float s = 0.f;
-        for (int t = 0; t < g.count; ++t) s += g.weights[t];
-        const std::size_t gb = std::size_t(g.at.block);
-        const float mg = grid.mass(gb)[g.at.node];
-        const float* momG = grid.velocity(gb) + 3 * g.at.node;
-        const float* impG = flip ? grid.aux(gb) + auxStride * g.at.node : nullptr;
-        for (int t = 0; t < g.count; ++t) {
-            const float w = g.weights[t];
-            const std::size_t tb = std::size_t(g.targets[t].block);
-            const int tn = g.targets[t].node;
-            grid.mass(tb)[tn] += w * s * mg;
-            float* mom = grid.velocity(tb) + 3 * tn;
-            float* force = flip ? grid.aux(tb) + auxStride * tn : mom;
-            for (int c = 0; c < 3; ++c) {
-                mom[c] -= w * momG[c];
-                if (flip) force[c] -= w * impG[c];
-                force[c] -= w * (1.f + s) * mg * gravityImpulse[c];
+    // The fold. Row-sum lumping of T^T M T gives the mirror node w s m_g of mass (s = sum of the
+    // ghost's weights); T^T gives it -w of the ghost's momentum and stress impulse; gravity's
+    // load T^T M g is (m_j - sum w m_g) g, while the update will add dt g to the folded mass's
+    // velocity: the difference, -w (1 + s) m_g dt g, goes with the forces (the FLIP impulse, or
+    // the combined momentum and impulse of APIC and PIC). Targets are shared between ghosts, so
+    // each target block applies its contributions in ghost order, as a serial loop over the
+    // ghosts would (bitwise), and the blocks run in parallel; ghosts are never targets, so every
+    // ghost's own values are read unchanged.
+    std::vector<std::uint32_t> first(nb + 1, 0);
+    for (const Ghost& g : mGhosts)
+        for (int t = 0; t < g.count; ++t) ++first[std::size_t(g.targets[t].block) + 1];
+    for (std::size_t b = 0; b < nb; ++b) first[b + 1] += first[b];
+    std::vector<std::uint32_t> contributions(first[nb]); // ghost * 8 + target, by target block
+    std::vector<std::uint32_t> cursor(first.begin(), first.end() - 1);
+    for (std::size_t q = 0; q < mGhosts.size(); ++q)
+        for (int t = 0; t < mGhosts[q].count; ++t)
+            contributions[cursor[std::size_t(mGhosts[q].targets[t].block)]++] =
+                std::uint32_t(q * 8 + std::size_t(t));
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nb, 16), [&](const auto& r) {
+        for (std::size_t tb = r.begin(); tb != r.end(); ++tb)
+            for (std::uint32_t k = first[tb]; k < first[tb + 1]; ++k) {
+                const Ghost& g = mGhosts[contributions[k] / 8];
+                const int t = int(contributions[k] % 8);
+                float s = 0.f;
+                for (int u = 0; u < g.count; ++u) s += g.weights[u];
+                const std::size_t gb = std::size_t(g.at.block);
+                const float mg = grid.mass(gb)[g.at.node];
+                const float* momG = grid.velocity(gb) + 3 * g.at.node;
+                const float* impG = flip ? grid.aux(gb) + auxStride * g.at.node : nullptr;
+                const float w = g.weights[t];
+                const int tn = g.targets[t].node;
+                grid.mass(tb)[tn] += w * s * mg;
+                float* mom = grid.velocity(tb) + 3 * tn;
+                float* force = flip ? grid.aux(tb) + auxStride * tn : mom;
+                for (int c = 0; c < 3; ++c) {
+                    mom[c] -= w * momG[c];
+                    if (flip) force[c] -= w * impG[c];
+                    force[c] -= w * (1.f + s) * mg * gravityImpulse[c];
+                }
             }
-        }
-    }
+    });
 }
 
 void StickyWalls::mirror(Grid& grid, bool flip) const {
