@@ -18,9 +18,8 @@ struct LeafKeyHash {
 };
 
 /// Records of leaves unused for this many re-bindings (new grid topologies: a steady grid keeps
-/// its binding) are dropped once the store holds more than
-/// twice the grid's blocks: a flow's wake is let go, a leaf the snow comes back to is asked
-/// again (the answers are the same).
+/// its binding) are dropped once the store holds more than twice the grid's blocks: a flow's
+/// wake is let go, a leaf the snow comes back to is asked again (the answers are the same).
 constexpr std::uint64_t kKeepUnused = 64;
 
 } // namespace
