@@ -5,6 +5,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <chrono>
@@ -246,7 +247,10 @@ public:
                 mDenseIndex[i] =
                     std::uint32_t((mColumnZ[i] - mMinZ) * mSpanX + (mColumnX[i] - mMinX));
         });
-        const std::size_t pieces = std::clamp<std::size_t>(columns / 1024, 1, 8);
+        // One range a thread: each range's task reads every particle (the sums, in particle
+        // order within each column, are the same for any count of ranges).
+        const std::size_t pieces = std::clamp<std::size_t>(
+            columns / 1024, 1, std::size_t(tbb::this_task_arena::max_concurrency()));
         tbb::parallel_for(std::size_t(0), pieces, [&](std::size_t piece) {
             const std::uint32_t lo = std::uint32_t(columns * piece / pieces),
                                 hi = std::uint32_t(columns * (piece + 1) / pieces);
