@@ -142,9 +142,8 @@ bool Collider::clearOf(const Vec3f& x, float reach) const {
 float Collider::signedDistance(const Vec3f& x) const {
     if (mShape == TerrainShape::Plane) return mNormal.dot(x - mPoint);
     if (mHeightfield) {
-        float h = 0.f, hx = 0.f, hz = 0.f;
-        mHeightfield->sampleAt(x[0], x[2], h, hx, hz);
-        return distanceAbove(x[1], h, hx, hz);
+        Slope slope;
+        return signedDistance(x, slope);
     }
     float cx = 0.f, cy = 0.f, sign = 1.f;
     nearestOnProfile(x[0], x[1], cx, cy, sign);
